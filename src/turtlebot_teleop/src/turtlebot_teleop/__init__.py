@@ -1,0 +1,1 @@
+"""turtlebot_teleop: turtlebot_teleop_key: keyboard teleoperation publishing cmd_vel."""
