@@ -1,0 +1,111 @@
+"""Render a tf tree as text and check the Florence robot's frame conventions.
+
+ROS-free: frames are given as a mapping ``child -> FrameLink`` (parent name,
+translation [m] and quaternion (x, y, z, w) of the child in the parent).
+"""
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class FrameLink:
+    parent: str
+    translation: tuple  # (x, y, z) [m] of the child's origin in the parent frame
+    rotation: tuple  # (x, y, z, w) unit quaternion of the child's axes in the parent frame
+
+
+def quaternion_matrix(q):
+    """3x3 rotation matrix of the unit quaternion ``q = (x, y, z, w)``."""
+    x, y, z, w = q
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def rpy_from_quaternion(q):
+    """(roll, pitch, yaw) [rad], fixed-axis XYZ as in URDF, of ``q = (x, y, z, w)``."""
+    r = quaternion_matrix(q)
+    pitch = math.asin(max(-1.0, min(1.0, -r[2, 0])))
+    if abs(r[2, 0]) < 1.0 - 1e-9:
+        roll = math.atan2(r[2, 1], r[2, 2])
+        yaw = math.atan2(r[1, 0], r[0, 0])
+    else:  # gimbal lock: put everything in yaw
+        roll = 0.0
+        yaw = math.atan2(-r[0, 1], r[1, 1])
+    return roll, pitch, yaw
+
+
+def pose_in(frames, root, frame):
+    """4x4 homogeneous pose of ``frame`` in ``root`` by chaining ``frames``.
+
+    Raises KeyError when ``frame`` does not descend from ``root``.
+    """
+    chain = []
+    current = frame
+    while current != root:
+        link = frames[current]
+        chain.append(link)
+        current = link.parent
+    pose = np.eye(4)
+    for link in reversed(chain):
+        step = np.eye(4)
+        step[:3, :3] = quaternion_matrix(link.rotation)
+        step[:3, 3] = link.translation
+        pose = pose @ step
+    return pose
+
+
+def render_tree(frames, root):
+    """Indented text of the tree below ``root``: each frame with its pose in its parent
+    and its height above ``root``."""
+    children = {}
+    for child, link in frames.items():
+        children.setdefault(link.parent, []).append(child)
+    lines = [root]
+
+    def walk(parent, depth):
+        for child in sorted(children.get(parent, [])):
+            link = frames[child]
+            roll, pitch, yaw = rpy_from_quaternion(link.rotation)
+            height = pose_in(frames, root, child)[2, 3]
+            x, y, z = link.translation
+            lines.append(
+                f"{'  ' * depth}{child}: xyz=({x:+.4f}, {y:+.4f}, {z:+.4f}) m"
+                f" rpy=({roll:+.4f}, {pitch:+.4f}, {yaw:+.4f}) rad, {height:.3f} m above {root}"
+            )
+            walk(child, depth + 1)
+
+    walk(root, 1)
+    return "\n".join(lines)
+
+
+def check_conventions(frames, base="base_link"):
+    """The frame conventions the Florence nodes rely on, as (name, passed, detail) rows."""
+    rows = []
+
+    def axis_in_base(frame, axis):
+        return pose_in(frames, base, frame)[:3, :3] @ np.asarray(axis, dtype=float)
+
+    try:
+        z = axis_in_base("base_laser_link", (0, 0, 1))
+        y = axis_in_base("base_laser_link", (0, 1, 0))
+        upside_down = bool(z[2] < -0.999 and y[1] < -0.999)
+        rows.append(("laser upside down", upside_down, f"laser z axis in {base} = {np.round(z, 4).tolist()}"))
+        below = bool(pose_in(frames, base, "base_laser_round_link")[2, 3] < pose_in(frames, base, "base_laser_link")[2, 3])
+        rows.append(("laser window below the laser body", below, "base_laser_round_link lower than base_laser_link"))
+    except KeyError as exc:
+        rows.append(("laser frames present", False, f"missing {exc}"))
+    for optical in ("camera_depth_optical_frame", "camera_rgb_optical_frame"):
+        try:
+            z = axis_in_base(optical, (0, 0, 1))
+            rows.append((f"{optical} looks forward", bool(z[0] > 0.99), f"optical z axis in {base} = {np.round(z, 4).tolist()}"))
+        except KeyError as exc:
+            rows.append((f"{optical} present", False, f"missing {exc}"))
+    return rows

@@ -1,0 +1,83 @@
+"""pytest fixtures for tests that need ROS (loaded by the workspace's conftest.py).
+
+Fixtures:
+    ros_master (session): a private rosmaster on a free port. The test process's
+        environment points at it, so rospy in the test process uses it too.
+    rospy_node (session): this test process as a rospy node (initialised once;
+        rospy cannot re-initialise in one process).
+    tf_buffer (session): a tf2_ros.Buffer fed by a TransformListener.
+    launch (function): ``launch(package, file, *args)`` starts a roslaunch against
+        the private master; every launch is stopped when the test ends, and its
+        output is printed if the test failed.
+"""
+
+import os
+
+import pytest
+
+from florence_harness.processes import RosMaster, launched, wait_for
+
+__all__ = ["wait_for"]
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_makereport(item, call):
+    outcome = yield
+    report = outcome.get_result()
+    setattr(item, f"rep_{report.when}", report)
+
+
+@pytest.fixture(scope="session")
+def ros_master():
+    saved = {k: os.environ.get(k) for k in ("ROS_MASTER_URI", "ROS_HOSTNAME", "ROS_HOME", "ROS_LOG_DIR", "ROS_IP")}
+    master = RosMaster().start()
+    for key, value in master.env().items():
+        if key.startswith("ROS_"):
+            os.environ[key] = value
+    os.environ.pop("ROS_IP", None)
+    try:
+        yield master
+    finally:
+        master.stop()
+        for key, value in saved.items():
+            if value is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = value
+
+
+@pytest.fixture(scope="session")
+def rospy_node(ros_master):
+    import rospy
+
+    rospy.init_node("pytest", anonymous=True, disable_signals=True)
+    yield rospy
+    rospy.signal_shutdown("test session over")
+
+
+@pytest.fixture(scope="session")
+def tf_buffer(rospy_node):
+    import tf2_ros
+
+    buffer = tf2_ros.Buffer()
+    listener = tf2_ros.TransformListener(buffer)
+    yield buffer
+    del listener
+
+
+@pytest.fixture
+def launch(request, ros_master):
+    stack = []
+
+    def start(package, launch_file, *args):
+        cm = launched(ros_master, package, launch_file, *args)
+        proc = cm.__enter__()
+        stack.append((cm, proc))
+        return proc
+
+    yield start
+    failed = getattr(request.node, "rep_call", None) is not None and request.node.rep_call.failed
+    for cm, proc in reversed(stack):
+        if failed:
+            print(f"----- output of {proc.name} -----\n{proc.output()}")
+        cm.__exit__(None, None, None)
