@@ -17,9 +17,8 @@ import os
 import sys
 import xml.etree.ElementTree as ET
 
-from florence_harness.processes import HarnessError, ManagedProcess, RosMaster, roslaunch, wait_for
-
 from florence_bringup.tf_report import FrameLink, check_conventions, render_tree
+from florence_harness.processes import HarnessError, ManagedProcess, RosMaster, roslaunch, wait_for
 
 ROOT_FRAME = "base_footprint"
 

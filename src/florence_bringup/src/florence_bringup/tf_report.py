@@ -98,14 +98,16 @@ def check_conventions(frames, base="base_link"):
         y = axis_in_base("base_laser_link", (0, 1, 0))
         upside_down = bool(z[2] < -0.999 and y[1] < -0.999)
         rows.append(("laser upside down", upside_down, f"laser z axis in {base} = {np.round(z, 4).tolist()}"))
-        below = bool(pose_in(frames, base, "base_laser_round_link")[2, 3] < pose_in(frames, base, "base_laser_link")[2, 3])
+        window_z = pose_in(frames, base, "base_laser_round_link")[2, 3]
+        below = bool(window_z < pose_in(frames, base, "base_laser_link")[2, 3])
         rows.append(("laser window below the laser body", below, "base_laser_round_link lower than base_laser_link"))
     except KeyError as exc:
         rows.append(("laser frames present", False, f"missing {exc}"))
     for optical in ("camera_depth_optical_frame", "camera_rgb_optical_frame"):
         try:
             z = axis_in_base(optical, (0, 0, 1))
-            rows.append((f"{optical} looks forward", bool(z[0] > 0.99), f"optical z axis in {base} = {np.round(z, 4).tolist()}"))
+            detail = f"optical z axis in {base} = {np.round(z, 4).tolist()}"
+            rows.append((f"{optical} looks forward", bool(z[0] > 0.99), detail))
         except KeyError as exc:
             rows.append((f"{optical} present", False, f"missing {exc}"))
     return rows

@@ -1,0 +1,67 @@
+"""The harness keeps its promises: private master on a free port, whole process groups stopped."""
+
+import os
+import socket
+import sys
+import time
+
+import pytest
+
+from florence_harness.processes import HarnessError, ManagedProcess, RosMaster, free_port, wait_for
+
+
+def alive(pid):
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    # A zombie still answers kill(0); read its state.
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().split(")")[1].split()[0] != "Z"
+    except FileNotFoundError:
+        return False
+
+
+def test_free_port_is_bindable_and_not_the_default():
+    port = free_port()
+    assert port != 11311
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", port))
+
+
+def test_wait_for_returns_value_and_times_out():
+    t0 = time.monotonic()
+    assert wait_for(lambda: time.monotonic() - t0 > 0.1 and "done", 5.0) == "done"
+    with pytest.raises(HarnessError, match="the impossible"):
+        wait_for(lambda: False, 0.2, what="the impossible")
+
+
+def test_stop_kills_the_whole_process_group(tmp_path):
+    """A child that ignores SIGINT and a grandchild both end: stop() escalates and works on the group."""
+    pidfile = tmp_path / "grandchild.pid"
+    script = (
+        "import signal, subprocess, sys, time\n"
+        "signal.signal(signal.SIGINT, signal.SIG_IGN)\n"
+        f"p = subprocess.Popen([sys.executable, '-c', 'import time; time.sleep(600)'])\n"
+        f"open({str(pidfile)!r}, 'w').write(str(p.pid))\n"
+        "time.sleep(600)\n"
+    )
+    proc = ManagedProcess([sys.executable, "-c", script], name="stubborn")
+    grandchild = int(wait_for(lambda: pidfile.exists() and pidfile.read_text(), 10.0, what="grandchild pid"))
+    assert alive(grandchild)
+    proc.stop(timeout=0.5)
+    assert not proc.running()
+    wait_for(lambda: not alive(grandchild), 5.0, what="grandchild gone")
+
+
+def test_private_master_answers_and_stops():
+    master = RosMaster().start()
+    try:
+        assert master.port != 11311
+        assert master.is_up()
+        assert master.env()["ROS_MASTER_URI"] == master.uri
+    finally:
+        master.stop()
+    with pytest.raises(Exception):  # noqa: B017 - any connection error
+        master.is_up()
