@@ -4,7 +4,8 @@
 # Both install what they need (Debian packages, pinned PyPI tools) idempotently.
 
 SHELL := /bin/bash
-.SHELLFLAGS := -eu -o pipefail -c
+# No -u: devel/setup.bash and Debian's ROS profile hooks read unset variables.
+.SHELLFLAGS := -e -o pipefail -c
 .DEFAULT_GOAL := help
 
 WS := $(CURDIR)
