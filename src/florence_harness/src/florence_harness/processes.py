@@ -62,7 +62,10 @@ class ManagedProcess:
     def __init__(self, argv, env=None, log_path=None, name=None):
         self.argv = list(argv)
         self.name = name or os.path.basename(self.argv[0])
-        self.log_path = log_path or tempfile.mktemp(prefix=f"{self.name}-", suffix=".log")
+        if log_path is None:
+            fd, log_path = tempfile.mkstemp(prefix=f"{self.name.replace('/', '_').replace(' ', '_')}-", suffix=".log")
+            os.close(fd)
+        self.log_path = log_path
         self._log = open(self.log_path, "wb")  # noqa: SIM115 - closed in stop()
         self.proc = subprocess.Popen(
             self.argv,

@@ -15,7 +15,7 @@ import os
 
 import pytest
 
-from florence_harness.processes import RosMaster, launched, wait_for
+from florence_harness.processes import RosMaster, roslaunch, wait_for
 
 __all__ = ["wait_for"]
 
@@ -67,17 +67,16 @@ def tf_buffer(rospy_node):
 
 @pytest.fixture
 def launch(request, ros_master):
-    stack = []
+    started = []
 
     def start(package, launch_file, *args):
-        cm = launched(ros_master, package, launch_file, *args)
-        proc = cm.__enter__()
-        stack.append((cm, proc))
+        proc = roslaunch(ros_master, package, launch_file, *args)
+        started.append(proc)
         return proc
 
     yield start
     failed = getattr(request.node, "rep_call", None) is not None and request.node.rep_call.failed
-    for cm, proc in reversed(stack):
+    for proc in reversed(started):
         if failed:
             print(f"----- output of {proc.name} -----\n{proc.output()}")
-        cm.__exit__(None, None, None)
+        proc.stop()
