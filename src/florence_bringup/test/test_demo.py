@@ -22,3 +22,59 @@ def test_demo_writes_report_from_live_tf(tmp_path):
     assert data["frames"]["base_laser_link"]["parent"] == "plate_1_link"
     assert len(data["frames"]) >= 30
     assert not list(out.glob("*.tmp")), "temporary files left behind"
+
+
+@pytest.mark.ros
+def test_demo_stopped_by_sigterm_leaves_no_process(tmp_path):
+    """A demo ended by SIGTERM (CI timeout, `timeout`, a supervisor) stops its master and launch."""
+    import os
+    import signal
+
+    from florence_harness.processes import ManagedProcess, wait_for
+
+    # A stand-in viewer that stays open, so the demo is certainly still running when signalled.
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    (bin_dir / "rviz").write_text("#!/bin/sh\nexec sleep 600\n")
+    (bin_dir / "rviz").chmod(0o755)
+    env = dict(os.environ, PATH=f"{bin_dir}:{os.environ['PATH']}")
+    demo = ManagedProcess([sys.executable, "-m", "florence_bringup.demo", "--output", str(tmp_path / "out"),
+                           "--rviz", "yes", "--timeout", "120"], env=env, name="demo")
+    children = []
+    try:
+        wait_for(lambda: "rviz is open" in demo.output(), 120.0, what="demo waiting on rviz")
+        assert demo.running()
+        children = _descendants(demo.pid)
+        assert children, "the demo started no child process"
+        os.kill(demo.pid, signal.SIGTERM)
+        demo.proc.wait(60.0)
+        wait_for(lambda: not any(_alive(p) for p in children), 30.0, what="children of the demo gone")
+    finally:
+        demo.stop()
+        for pid in children:  # survivors of a failed run: this test started them, it stops them
+            if _alive(pid):
+                os.kill(pid, signal.SIGKILL)
+
+
+def _descendants(pid):
+    import subprocess
+
+    out = subprocess.run(["ps", "-eo", "pid,ppid"], capture_output=True, text=True, check=True).stdout
+    parents = {}
+    for line in out.splitlines()[1:]:
+        child, parent = (int(v) for v in line.split())
+        parents.setdefault(parent, []).append(child)
+    found, todo = [], [pid]
+    while todo:
+        for child in parents.get(todo.pop(), []):
+            found.append(child)
+            todo.append(child)
+    return found
+
+
+def _alive(pid):
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().split(")")[1].split()[0] != "Z"
+    except FileNotFoundError:
+        return False

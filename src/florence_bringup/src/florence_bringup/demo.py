@@ -14,6 +14,7 @@ import argparse
 import datetime
 import json
 import os
+import signal
 import sys
 import xml.etree.ElementTree as ET
 
@@ -102,6 +103,8 @@ def main(argv=None):
     parser.add_argument("--timeout", type=float, default=60.0, help="seconds to wait for the tf tree")
     args = parser.parse_args(argv)
 
+    # SIGTERM (e.g. from `timeout` or a supervisor) must still stop every child below.
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
     master = RosMaster().start()
     processes = []
     try:
