@@ -65,3 +65,13 @@ def test_private_master_answers_and_stops():
         master.stop()
     with pytest.raises(Exception):  # noqa: B017 - any connection error
         master.is_up()
+
+
+def test_child_output_reaches_the_log_while_it_runs(monkeypatch):
+    """Regression: a Python child blocked after printing must not keep the line in its buffer."""
+    monkeypatch.delenv("PYTHONUNBUFFERED", raising=False)
+    proc = ManagedProcess([sys.executable, "-c", "import time; print('ready'); time.sleep(600)"], name="printer")
+    try:
+        wait_for(lambda: "ready" in proc.output(), 10.0, what="the child's line in its log")
+    finally:
+        proc.stop()

@@ -109,7 +109,7 @@ def main(argv=None):
     processes = []
     try:
         os.environ.update({k: v for k, v in master.env().items() if k.startswith("ROS_")})
-        print(f"demo: private ROS master at {master.uri}")
+        print(f"demo: private ROS master at {master.uri}", flush=True)
         processes.append(roslaunch(master, "turtlebot_control", "description.launch"))
 
         import rospy
@@ -121,8 +121,8 @@ def main(argv=None):
         frames = read_tf_tree(rospy, links, args.timeout)
         checks = check_conventions(frames)
         report, passed = write_report(args.output, frames, checks, links, master.uri)
-        print(report)
-        print(f"demo: report written to {os.path.join(os.path.abspath(args.output), 'report.md')}")
+        print(report, flush=True)
+        print(f"demo: report written to {os.path.join(os.path.abspath(args.output), 'report.md')}", flush=True)
 
         if args.rviz == "yes" or (args.rviz == "auto" and os.environ.get("DISPLAY")):
             import rospkg
@@ -130,7 +130,7 @@ def main(argv=None):
             config = os.path.join(rospkg.RosPack().get_path("florence_bringup"), "rviz", "florence.rviz")
             rviz = ManagedProcess(["rviz", "-d", config, "-f", ROOT_FRAME], env=master.env(), name="rviz")
             processes.append(rviz)
-            print("demo: rviz is open; close its window (or press Ctrl-C) to end the demo")
+            print("demo: rviz is open; close its window (or press Ctrl-C) to end the demo", flush=True)
             rviz.proc.wait()
         rospy.signal_shutdown("demo over")
         return 0 if passed else 1

@@ -67,6 +67,8 @@ class ManagedProcess:
             os.close(fd)
         self.log_path = log_path
         self._log = open(self.log_path, "wb")  # noqa: SIM115 - closed in stop()
+        env = dict(os.environ if env is None else env)
+        env.setdefault("PYTHONUNBUFFERED", "1")  # what a child prints reaches its log at once
         self.proc = subprocess.Popen(
             self.argv,
             env=env,
