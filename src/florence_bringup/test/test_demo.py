@@ -30,7 +30,7 @@ def test_demo_stopped_by_sigterm_leaves_no_process(tmp_path):
     import os
     import signal
 
-    from florence_harness.processes import ManagedProcess, wait_for
+    from florence_harness.processes import ManagedProcess, pid_alive, wait_for
 
     # A stand-in viewer that stays open, so the demo is certainly still running when signalled.
     bin_dir = tmp_path / "bin"
@@ -48,11 +48,11 @@ def test_demo_stopped_by_sigterm_leaves_no_process(tmp_path):
         assert children, "the demo started no child process"
         os.kill(demo.pid, signal.SIGTERM)
         demo.proc.wait(60.0)
-        wait_for(lambda: not any(_alive(p) for p in children), 30.0, what="children of the demo gone")
+        wait_for(lambda: not any(pid_alive(p) for p in children), 30.0, what="children of the demo gone")
     finally:
         demo.stop()
         for pid in children:  # survivors of a failed run: this test started them, it stops them
-            if _alive(pid):
+            if pid_alive(pid):
                 os.kill(pid, signal.SIGKILL)
 
 
@@ -70,11 +70,3 @@ def _descendants(pid):
             found.append(child)
             todo.append(child)
     return found
-
-
-def _alive(pid):
-    try:
-        with open(f"/proc/{pid}/stat") as f:
-            return f.read().split(")")[1].split()[0] != "Z"
-    except FileNotFoundError:
-        return False

@@ -1,26 +1,12 @@
 """The harness keeps its promises: private master on a free port, whole process groups stopped."""
 
-import os
 import socket
 import sys
 import time
 
 import pytest
 
-from florence_harness.processes import HarnessError, ManagedProcess, RosMaster, free_port, wait_for
-
-
-def alive(pid):
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    # A zombie still answers kill(0); read its state.
-    try:
-        with open(f"/proc/{pid}/stat") as f:
-            return f.read().split(")")[1].split()[0] != "Z"
-    except FileNotFoundError:
-        return False
+from florence_harness.processes import HarnessError, ManagedProcess, RosMaster, free_port, pid_alive, wait_for
 
 
 def test_free_port_is_bindable_and_not_the_default():
@@ -49,10 +35,10 @@ def test_stop_kills_the_whole_process_group(tmp_path):
     )
     proc = ManagedProcess([sys.executable, "-c", script], name="stubborn")
     grandchild = int(wait_for(lambda: pidfile.exists() and pidfile.read_text(), 10.0, what="grandchild pid"))
-    assert alive(grandchild)
+    assert pid_alive(grandchild)
     proc.stop(timeout=0.5)
     assert not proc.running()
-    wait_for(lambda: not alive(grandchild), 5.0, what="grandchild gone")
+    wait_for(lambda: not pid_alive(grandchild), 5.0, what="grandchild gone")
 
 
 def test_private_master_answers_and_stops():

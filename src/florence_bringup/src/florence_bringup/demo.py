@@ -54,6 +54,13 @@ def read_tf_tree(rospy, links, timeout):
     return frames
 
 
+def _write_atomically(path, text):
+    tmp = path + ".tmp"
+    with open(tmp, "w") as f:
+        f.write(text)
+    os.replace(tmp, path)
+
+
 def write_report(out_dir, frames, checks, links, master_uri):
     os.makedirs(out_dir, exist_ok=True)
     tree = render_tree(frames, ROOT_FRAME)
@@ -80,18 +87,13 @@ def write_report(out_dir, frames, checks, links, master_uri):
         "",
     ]
     report = "\n".join(lines)
-    path = os.path.join(out_dir, "report.md")
-    tmp = path + ".tmp"
-    with open(tmp, "w") as f:
-        f.write(report)
-    os.replace(tmp, path)
+    _write_atomically(os.path.join(out_dir, "report.md"), report)
     data = {
         child: {"parent": link.parent, "translation": list(link.translation), "rotation_xyzw": list(link.rotation)}
         for child, link in frames.items()
     }
-    with open(os.path.join(out_dir, "frames.json.tmp"), "w") as f:
-        json.dump({"root": ROOT_FRAME, "frames": data, "checks": checks}, f, indent=2)
-    os.replace(os.path.join(out_dir, "frames.json.tmp"), os.path.join(out_dir, "frames.json"))
+    _write_atomically(os.path.join(out_dir, "frames.json"),
+                      json.dumps({"root": ROOT_FRAME, "frames": data, "checks": checks}, indent=2))
     return report, passed
 
 

@@ -4,10 +4,10 @@ ROS-free: frames are given as a mapping ``child -> FrameLink`` (parent name,
 translation [m] and quaternion (x, y, z, w) of the child in the parent).
 """
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 
 @dataclass(frozen=True)
@@ -17,29 +17,9 @@ class FrameLink:
     rotation: tuple  # (x, y, z, w) unit quaternion of the child's axes in the parent frame
 
 
-def quaternion_matrix(q):
-    """3x3 rotation matrix of the unit quaternion ``q = (x, y, z, w)``."""
-    x, y, z, w = q
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-        ]
-    )
-
-
 def rpy_from_quaternion(q):
     """(roll, pitch, yaw) [rad], fixed-axis XYZ as in URDF, of ``q = (x, y, z, w)``."""
-    r = quaternion_matrix(q)
-    pitch = math.asin(max(-1.0, min(1.0, -r[2, 0])))
-    if abs(r[2, 0]) < 1.0 - 1e-9:
-        roll = math.atan2(r[2, 1], r[2, 2])
-        yaw = math.atan2(r[1, 0], r[0, 0])
-    else:  # gimbal lock: put everything in yaw
-        roll = 0.0
-        yaw = math.atan2(-r[0, 1], r[1, 1])
-    return roll, pitch, yaw
+    return tuple(float(a) for a in Rotation.from_quat(q).as_euler("xyz"))
 
 
 def pose_in(frames, root, frame):
@@ -56,7 +36,7 @@ def pose_in(frames, root, frame):
     pose = np.eye(4)
     for link in reversed(chain):
         step = np.eye(4)
-        step[:3, :3] = quaternion_matrix(link.rotation)
+        step[:3, :3] = Rotation.from_quat(link.rotation).as_matrix()
         step[:3, 3] = link.translation
         pose = pose @ step
     return pose

@@ -21,9 +21,6 @@ import xmlrpc.client
 
 log = logging.getLogger(__name__)
 
-DEBIAN_PYTHON = "/usr/bin/python3"
-
-
 class HarnessError(RuntimeError):
     """A process did not start, or a condition did not come true in time."""
 
@@ -33,6 +30,15 @@ def free_port():
     with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
         sock.bind(("127.0.0.1", 0))
         return sock.getsockname()[1]
+
+
+def pid_alive(pid):
+    """True while process ``pid`` runs; a zombie (exited, not yet reaped) counts as gone."""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except FileNotFoundError:
+        return False
 
 
 def wait_for(predicate, timeout, interval=0.05, what="condition"):
@@ -138,7 +144,6 @@ class RosMaster:
             ROS_HOME=self.ros_home,
             ROS_LOG_DIR=os.path.join(self.ros_home, "log"),
             ROS_PYTHON_VERSION="3",
-            PYTHONUNBUFFERED="1",
         )
         env.pop("ROS_IP", None)
         env.update({k: str(v) for k, v in extra.items()})
@@ -171,18 +176,12 @@ class RosMaster:
             self.process.stop()
             self.process = None
 
-    def __enter__(self):
-        return self.start()
-
-    def __exit__(self, *exc):
-        self.stop()
-
 
 def roslaunch(master, package, launch_file, *args, log_path=None, env=None):
     """Start ``roslaunch package launch_file args...`` against ``master``.
 
-    Returns a :class:`ManagedProcess`; the caller stops it (or uses
-    :func:`launched`). ``args`` are ``name:=value`` strings.
+    Returns a :class:`ManagedProcess`; the caller stops it. ``args`` are
+    ``name:=value`` strings.
     """
     # No --wait: the master is up already, and with --wait roslaunch 1.15 can spin forever.
     argv = ["roslaunch", "--disable-title", package, launch_file, *args]
@@ -192,13 +191,3 @@ def roslaunch(master, package, launch_file, *args, log_path=None, env=None):
         log_path=log_path or os.path.join(master.ros_home, f"roslaunch-{package}-{launch_file}.log"),
         name=f"roslaunch {package}/{launch_file}",
     )
-
-
-@contextlib.contextmanager
-def launched(master, package, launch_file, *args, **kwargs):
-    """Context manager around :func:`roslaunch` that always stops the launch."""
-    proc = roslaunch(master, package, launch_file, *args, **kwargs)
-    try:
-        yield proc
-    finally:
-        proc.stop()
