@@ -4,7 +4,6 @@ import math
 
 import numpy as np
 import pytest
-
 from florence_sim.base import BUMP_LEFT, BUMP_RIGHT, BaseConfig, DiffDriveBase, clamp_to_wheels
 from florence_sim.geometry import Box, Cylinder, Scene
 from florence_sim.people import Person
@@ -229,8 +228,7 @@ def test_depth_range_limits_give_nan(robot):
 
 def test_table_is_seen_by_the_kinect_and_not_by_the_laser(robot):
     """Table 1.2 m ahead between the legs: the laser passes under it, the Kinect sees the top."""
-    table = [Box("table/top", 2.0, 0.0, 0.0, 0.8, 1.2, 0.71, 0.75)] + [
-        Box("wall", 5.05, 0.0, 0.0, 0.1, 10.0, 0.0, 2.4)]
+    table = [Box("table/top", 2.0, 0.0, 0.0, 0.8, 1.2, 0.71, 0.75), Box("wall", 5.05, 0.0, 0.0, 0.1, 10.0, 0.0, 2.4)]
     legs = [Cylinder(f"table/leg{i}", 2.0 + dx, dy, 0.025, 0.0, 0.71) for i, (dx, dy) in
             enumerate([(0.35, 0.55), (-0.35, 0.55), (0.35, -0.55), (-0.35, -0.55)])]
     scene = Scene(table, legs)
@@ -242,7 +240,7 @@ def test_table_is_seen_by_the_kinect_and_not_by_the_laser(robot):
 
     cam = DepthCamera(CameraConfig(depth_noise=0.0))
     pose = world_pose(0.0, 0.0, 0.0) @ robot.pose("camera_depth_optical_frame")
-    depth, rgb = cam.render(scene, pose)
+    depth, _ = cam.render(scene, pose)
     upper = depth[: cam.cfg.height // 2, cam.cfg.width // 2 - 10: cam.cfg.width // 2 + 10]
     cam_x = pose[0, 3]
     on_table = np.abs(upper - (1.6 - cam_x)) < 0.05  # front face of the top at x = 1.6

@@ -66,6 +66,7 @@ def topics(sim, rospy_node):
     from rosgraph_msgs.msg import Clock
     from sensor_msgs.msg import LaserScan
     from std_msgs.msg import UInt32
+
     from turtlebot_node.msg import TurtlebotSensorState
 
     rospy = rospy_node

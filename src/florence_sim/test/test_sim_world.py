@@ -6,10 +6,10 @@ import pathlib
 import numpy as np
 import pytest
 import yaml
-
-from florence_sim import mapgen
 from florence_sim.people import Person, check_path, load_people
 from florence_sim.world import ROOMS, WorldError, load_world
+
+from florence_sim import mapgen
 
 MAPS = pathlib.Path(__file__).resolve().parents[3] / "maps"
 APARTMENT = MAPS / "apartment" / "apartment.world.yaml"
