@@ -251,7 +251,8 @@ def test_camera_intrinsics_and_groups_cover_every_pixel():
     cam = DepthCamera(CameraConfig(width=640, height=480))
     assert math.degrees(2 * math.atan(320 / cam.fx)) == pytest.approx(58.0)
     assert 44 < math.degrees(2 * math.atan(240 / cam.fy)) < 46
-    assert sorted(np.concatenate(cam.groups).tolist()) == list(range(640 * 480))
+    assert sorted(cam.order.tolist()) == list(range(640 * 480))
+    assert [g.stop - g.start for g in cam.groups] == [80 * 480] * 8
 
 
 def test_grouped_and_ungrouped_casting_agree(robot):
