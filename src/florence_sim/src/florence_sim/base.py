@@ -1,8 +1,8 @@
 """The iRobot Create base: differential drive, bumpers, odometry and gyro (no ROS).
 
 State vector of the true pose: (x [m], y [m], yaw [rad]) in the world (map)
-frame; odometry (x, y, yaw) in the odom frame, which starts equal to the world
-pose and then drifts with the configured wheel and gyro errors, as the
+frame; odometry (x, y, yaw) in the odom frame, which starts at zero where the
+robot starts and then drifts with the configured wheel and gyro errors, as the
 turtlebot_node odometry (wheels for distance, gyro for heading) does.
 """
 
@@ -81,8 +81,9 @@ class DiffDriveBase:
     def set_pose(self, x, y, yaw, reset_odom=False):
         """Move the robot (a test service); odometry keeps counting unless reset."""
         self.x, self.y, self.yaw = float(x), float(y), float(yaw)
-        if reset_odom:
-            self.ox, self.oy, self.oyaw = self.x, self.y, self.yaw
+        if reset_odom:  # odometry starts at zero where the robot is, as the Create driver's does
+            self.ox = self.oy = self.oyaw = 0.0
+            self.odom_origin = (self.x, self.y, self.yaw)
             self.odom_v = self.odom_w = 0.0
         self.v = self.w = 0.0
 
@@ -159,6 +160,12 @@ class DiffDriveBase:
         self.odom_v, self.odom_w = ds / dt, rate
         self.distance_acc += ds
         self.angle_acc += dth
+
+    def odom_in_world(self):
+        """The odometry pose (x, y, yaw) expressed in the world, through the pose it started at."""
+        x0, y0, yaw0 = self.odom_origin
+        c, s = math.cos(yaw0), math.sin(yaw0)
+        return x0 + c * self.ox - s * self.oy, y0 + s * self.ox + c * self.oy, _wrap(yaw0 + self.oyaw)
 
     def take_packet_deltas(self):
         """(distance [m], angle [rad]) since the previous call, like the Create's sensor packet."""

@@ -599,13 +599,14 @@ class _Messages:
         from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
         b = self.sim.base
+        ox, oy, _ = b.odom_in_world()
         arr = DiagnosticArray()
         arr.header.stamp = stamp
         base = DiagnosticStatus(level=DiagnosticStatus.WARN if b.bumps else DiagnosticStatus.OK,
                                 name="turtlebot_node: Base (simulated)",
                                 message="bumper pressed" if b.bumps else "OK", hardware_id="florence_sim")
         base.values = [KeyValue("bumps_wheeldrops", str(b.bumps)), KeyValue("collisions", str(b.collisions)),
-                       KeyValue("odom_error_m", f"{math.hypot(b.x - b.ox, b.y - b.oy):.3f}")]
+                       KeyValue("odom_error_m", f"{math.hypot(b.x - ox, b.y - oy):.3f}")]
         laser = DiagnosticStatus(level=DiagnosticStatus.OK, name="hokuyo_node: Hokuyo (simulated)",
                                  message="OK", hardware_id="florence_sim URG-04LX")
         sim = DiagnosticStatus(level=DiagnosticStatus.OK, name="florence_sim: Simulation", message="running",
