@@ -320,3 +320,14 @@ def test_people_are_seen_by_laser_legs_and_camera_shirt(robot):
     green = (rgb[..., 1] > 100) & (rgb[..., 0] < 50) & (rgb[..., 2] < 50)
     assert green.sum() > 50
     assert np.nanmedian(depth[green]) == pytest.approx(2.0 - 0.18 + 0.087, abs=0.1)
+
+
+def test_person_waits_while_the_robot_is_in_the_way():
+    p = Person("a", path=[(0.0, 0.0), (4.0, 0.0)], speed=1.0, mode="once")
+    robot = (2.0, 0.0, 0.17)
+    for _ in range(400):
+        p.step(DT, keep_clear=robot)
+    assert p.x == pytest.approx(2.0 - 0.17 - 0.20 - 0.15, abs=0.02) and p.vx == 0.0
+    for _ in range(400):  # the robot leaves: the walk goes on
+        p.step(DT, keep_clear=(2.0, 3.0, 0.17))
+    assert p.x == pytest.approx(4.0)

@@ -78,8 +78,9 @@ class Simulator:
     def step(self):
         """Advance one physics step; return the list of outputs due now."""
         dt = self.cfg.dt
+        robot = (self.base.x, self.base.y, self.base.cfg.radius)
         for p in self.people.values():
-            p.step(dt)
+            p.step(dt, keep_clear=robot)
         self._scene_dirty = True
         self.base.step(dt, self.time, self.scene())
         self._step_tilt(dt)
