@@ -59,6 +59,8 @@ import numpy as np
 
 NAME = "florence_sim"
 TILT_JOINT = "camera_tilt_joint"
+# odometry covariance (x, y, z, roll, pitch, yaw) [m^2, rad^2]: planar, z and tilts unknown
+ODOM_COVARIANCE = np.diag([1e-3, 1e-3, 1e6, 1e6, 1e6, 1e-3]).ravel().tolist()
 
 
 def _default_world():
@@ -266,7 +268,10 @@ class SimNode:
 
     # ------------------------------------------------------------------ main loop
     def spin(self):
+        from rosgraph_msgs.msg import Clock
+
         rospy = self.rospy
+        self.pub_clock.publish(Clock(rospy.Time.from_sec(self.sim.time)))  # time is defined even while paused
         ref_wall, ref_sim = time.monotonic(), self.sim.time
         window_wall, window_sim = ref_wall, ref_sim
         while not rospy.is_shutdown():
@@ -355,61 +360,51 @@ class _Messages:
 
     def __init__(self, sim):
         self.sim = sim
-        self.seq = 0
 
-    def odometry(self, stamp):
-        from geometry_msgs.msg import TransformStamped
+    @staticmethod
+    def _odometry_msg(stamp, frame, pose, v, w, covariance=None):
+        """nav_msgs/Odometry of base_footprint at ``pose`` (x, y, yaw) in ``frame``."""
         from nav_msgs.msg import Odometry
 
-        b = self.sim.base
-        odom = Odometry()
-        odom.header.stamp = stamp
-        odom.header.frame_id = "odom"
-        odom.child_frame_id = "base_footprint"
-        odom.pose.pose.position.x, odom.pose.pose.position.y = b.ox, b.oy
-        odom.pose.pose.orientation = _quaternion(b.oyaw)
-        odom.twist.twist.linear.x = b.odom_v
-        odom.twist.twist.angular.z = b.odom_w
-        cov = np.diag([1e-3, 1e-3, 1e6, 1e6, 1e6, 1e-3]).ravel().tolist()
-        odom.pose.covariance = cov
-        odom.twist.covariance = cov
-        t = TransformStamped()
-        t.header = odom.header
-        t.child_frame_id = "base_footprint"
-        t.transform.translation.x, t.transform.translation.y = b.ox, b.oy
-        t.transform.rotation = odom.pose.pose.orientation
-        return odom, t
-
-    def map_to_odom(self, stamp):
-        from geometry_msgs.msg import TransformStamped
-
-        b = self.sim.base
-        # map->odom = truth * odom^-1
-        dyaw = b.yaw - b.oyaw
-        c, s = math.cos(dyaw), math.sin(dyaw)
-        tx = b.x - (c * b.ox - s * b.oy)
-        ty = b.y - (s * b.ox + c * b.oy)
-        t = TransformStamped()
-        t.header.stamp = stamp
-        t.header.frame_id = "map"
-        t.child_frame_id = "odom"
-        t.transform.translation.x, t.transform.translation.y = tx, ty
-        t.transform.rotation = _quaternion(dyaw)
-        return t
-
-    def ground_truth(self, stamp):
-        from nav_msgs.msg import Odometry
-
-        b = self.sim.base
         msg = Odometry()
         msg.header.stamp = stamp
-        msg.header.frame_id = "map"
+        msg.header.frame_id = frame
         msg.child_frame_id = "base_footprint"
-        msg.pose.pose.position.x, msg.pose.pose.position.y = b.x, b.y
-        msg.pose.pose.orientation = _quaternion(b.yaw)
-        msg.twist.twist.linear.x = b.v
-        msg.twist.twist.angular.z = b.w
+        msg.pose.pose.position.x, msg.pose.pose.position.y = pose[0], pose[1]
+        msg.pose.pose.orientation = _quaternion(pose[2])
+        msg.twist.twist.linear.x, msg.twist.twist.angular.z = v, w
+        if covariance is not None:
+            msg.pose.covariance = msg.twist.covariance = covariance
         return msg
+
+    @staticmethod
+    def _transform(stamp, parent, child, x, y, yaw):
+        from geometry_msgs.msg import TransformStamped
+
+        t = TransformStamped()
+        t.header.stamp = stamp
+        t.header.frame_id = parent
+        t.child_frame_id = child
+        t.transform.translation.x, t.transform.translation.y = x, y
+        t.transform.rotation = _quaternion(yaw)
+        return t
+
+    def odometry(self, stamp):
+        """``odom`` message and the tf odom -> base_footprint."""
+        b = self.sim.base
+        odom = self._odometry_msg(stamp, "odom", (b.ox, b.oy, b.oyaw), b.odom_v, b.odom_w, ODOM_COVARIANCE)
+        return odom, self._transform(stamp, "odom", "base_footprint", b.ox, b.oy, b.oyaw)
+
+    def map_to_odom(self, stamp):
+        """tf map -> odom = truth * odom^-1 (fake localization)."""
+        b = self.sim.base
+        dyaw = b.yaw - b.oyaw
+        c, s = math.cos(dyaw), math.sin(dyaw)
+        return self._transform(stamp, "map", "odom", b.x - (c * b.ox - s * b.oy), b.y - (s * b.ox + c * b.oy), dyaw)
+
+    def ground_truth(self, stamp):
+        b = self.sim.base
+        return self._odometry_msg(stamp, "map", (b.x, b.y, b.yaw), b.v, b.w)
 
     def gyro(self, stamp):
         from sensor_msgs.msg import Imu
