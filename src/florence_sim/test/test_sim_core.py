@@ -331,3 +331,14 @@ def test_person_waits_while_the_robot_is_in_the_way():
     for _ in range(400):  # the robot leaves: the walk goes on
         p.step(DT, keep_clear=(2.0, 3.0, 0.17))
     assert p.x == pytest.approx(4.0)
+
+
+def test_sitting_and_standing_bodies():
+    standing = Person("a", x=1.0, y=0.0)
+    sitting = Person("b", x=1.0, y=0.0, posture="sitting")
+    assert max(c.z1 for c in standing.primitives()) == pytest.approx(1.72)
+    assert max(c.z1 for c in sitting.primitives()) == pytest.approx(1.32)
+    legs = [c for c in standing.primitives() if c.z0 == 0.0]
+    assert len(legs) == 2 and all(c.z1 > 0.5 for c in legs), "two legs cross the laser plane"
+    sitting.step(1.0)
+    assert (sitting.x, sitting.y) == (1.0, 0.0) and not sitting.walking
