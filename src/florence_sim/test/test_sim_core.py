@@ -342,3 +342,21 @@ def test_sitting_and_standing_bodies():
     assert len(legs) == 2 and all(c.z1 > 0.5 for c in legs), "two legs cross the laser plane"
     sitting.step(1.0)
     assert (sitting.x, sitting.y) == (1.0, 0.0) and not sitting.walking
+
+
+def test_outputs_fall_due_at_their_exact_average_rates(robot):
+    from florence_sim.base import BaseConfig
+    from florence_sim.sim import SimConfig, Simulator
+    from florence_sim.world import World
+
+    world = World("w", "w", Scene(room(6.0)), 0.05, ((0, 0), (6, 6)))
+    sim = Simulator(world, robot, BaseConfig(radius=0.17, height=0.94, wheel_separation=0.26), SimConfig(),
+                    start=(3.0, 3.0, 0.0))
+    counts = {}
+    for _ in range(1000):  # 10 s
+        for name in sim.step():
+            counts[name] = counts.get(name, 0) + 1
+    assert sim.time == pytest.approx(10.0)
+    # due at t = 0 (the first step) and then every period up to t = 10 s inclusive
+    assert counts == {"laser": 101, "camera": 151, "odom": 301, "sensor_state": 101, "kinect_aux": 101,
+                      "people": 101, "diagnostics": 11}

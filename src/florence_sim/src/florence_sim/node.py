@@ -37,7 +37,8 @@ ROS Publishers:
     base_pose_ground_truth (nav_msgs/Odometry): true pose, frame map, child base_footprint
     people_ground_truth (florence_sim/People), ~people_markers (visualization_msgs/MarkerArray)
     ~map (nav_msgs/OccupancyGrid, latched): the ground-truth map of the world at laser height
-    collisions (std_msgs/UInt32): number of bumper contacts so far
+    collisions (std_msgs/UInt32, latched): number of bumper contacts so far
+    (a message is built only when its topic has subscribers; /clock and tf always)
     tf map->odom when ~fake_localization
 
 ROS Subscribers:
@@ -175,6 +176,8 @@ class SimNode:
         self.pub_collisions = P("collisions", UInt32, queue_size=10, latch=True)
         self.tf = tf2_ros.TransformBroadcaster()
         self.msgs = _Messages(self.sim)
+        self.pub_collisions.publish(0)
+        self.published_collisions = 0
 
         self.pub_map.publish(self.msgs.ground_truth_map(laser_height=self.sim.laser.mount[2, 3]))
 
@@ -296,10 +299,16 @@ class SimNode:
                 elif delay < -0.25:  # fell behind (loaded machine): do not try to catch up in a burst
                     ref_wall, ref_sim = now, self.sim.time
 
+    @staticmethod
+    def _send(pub, build):
+        """Build and publish a message only when somebody listens (rospy messages cost CPU)."""
+        if pub.get_num_connections():
+            pub.publish(build())
+
     def _publish(self, due):
         from rosgraph_msgs.msg import Clock
 
-        sim, m = self.sim, self.msgs
+        sim, m, send = self.sim, self.msgs, self._send
         stamp = self.rospy.Time.from_sec(sim.time)
         self.pub_clock.publish(Clock(stamp))
         if "odom" in due:
@@ -308,35 +317,37 @@ class SimNode:
             if self.fake_localization:
                 transforms.append(m.map_to_odom(stamp))
             self.tf.sendTransform(transforms)
-            self.pub_odom.publish(odom)
-            self.pub_imu.publish(m.gyro(stamp))
-            self.pub_truth.publish(m.ground_truth(stamp))
+            send(self.pub_odom, lambda: odom)
+            send(self.pub_imu, lambda: m.gyro(stamp))
+            send(self.pub_truth, lambda: m.ground_truth(stamp))
         if "laser" in due:
-            self.pub_scan.publish(m.scan(stamp, sim.scan()))
+            send(self.pub_scan, lambda: m.scan(stamp, sim.scan()))
         if "camera" in due:
             self._publish_camera(stamp)
         if "sensor_state" in due:
-            self.pub_state.publish(m.sensor_state(stamp))
-            self.pub_collisions.publish(sim.base.collisions)
+            state = m.sensor_state(stamp)  # built anyway: it resets the packet's distance and angle
+            send(self.pub_state, lambda: state)
+            if sim.base.collisions != self.published_collisions:  # latched: published on change
+                self.pub_collisions.publish(sim.base.collisions)
+                self.published_collisions = sim.base.collisions
         if "kinect_aux" in due:
-            self.pub_tilt.publish(math.degrees(sim.tilt))
-            self.pub_tilt_status.publish(sim.tilt_status)
-            self.pub_accel.publish(m.accelerometer(stamp))
-            self.pub_joints.publish(m.joint_states(stamp))
+            send(self.pub_tilt, lambda: math.degrees(sim.tilt))
+            send(self.pub_tilt_status, lambda: sim.tilt_status)
+            send(self.pub_accel, lambda: m.accelerometer(stamp))
+            send(self.pub_joints, lambda: m.joint_states(stamp))
         if "people" in due:
-            self.pub_people.publish(m.people(stamp))
-            if self.pub_markers.get_num_connections():
-                self.pub_markers.publish(m.markers(stamp))
+            send(self.pub_people, lambda: m.people(stamp))
+            send(self.pub_markers, lambda: m.markers(stamp))
         if "diagnostics" in due:
-            self.pub_diag.publish(m.diagnostics(stamp, self.achieved_rtf, self.rtf))
+            send(self.pub_diag, lambda: m.diagnostics(stamp, self.achieved_rtf, self.rtf))
 
     def _publish_camera(self, stamp):
-        m = self.msgs
+        m, send = self.msgs, self._send
         depth_wanted = self.render_always or self.pub_depth.get_num_connections() > 0
         rgb_wanted = self.render_always or (self.pub_rgb.get_num_connections() + self.pub_points.get_num_connections()
                                             ) > 0
-        self.pub_depth_info.publish(m.camera_info(stamp, "camera_depth_optical_frame"))
-        self.pub_rgb_info.publish(m.camera_info(stamp, "camera_rgb_optical_frame"))
+        send(self.pub_depth_info, lambda: m.camera_info(stamp, "camera_depth_optical_frame"))
+        send(self.pub_rgb_info, lambda: m.camera_info(stamp, "camera_rgb_optical_frame"))
         if depth_wanted:
             depth, _ = self.sim.render_camera("camera_depth_optical_frame", color=False)
             self.pub_depth.publish(m.depth_image(stamp, depth))

@@ -91,7 +91,10 @@ class Simulator:
             if self.time + 1e-9 >= self._next_due[name]:
                 due.append(name)
                 period = 1.0 / rate
-                self._next_due[name] = max(self._next_due[name] + period, self.time + period - dt / 2)
+                # keep the average rate exact (15 Hz on a 10 ms step: 7, 7, 6 steps apart ...)
+                self._next_due[name] += period
+                if self._next_due[name] <= self.time:  # the rate was changed or time jumped
+                    self._next_due[name] = self.time + period
         return due
 
     def _step_tilt(self, dt):
