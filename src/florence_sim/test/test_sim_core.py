@@ -360,3 +360,18 @@ def test_outputs_fall_due_at_their_exact_average_rates(robot):
     # due at t = 0 (the first step) and then every period up to t = 10 s inclusive
     assert counts == {"laser": 101, "camera": 151, "odom": 301, "sensor_state": 101, "kinect_aux": 101,
                       "people": 101, "diagnostics": 11}
+
+
+def test_laser_self_hits_see_the_standoffs_only_when_asked(robot):
+    """The inverted Hokuyo under plate_1 sees the two front standoffs of plate_0 at about +-85 deg."""
+    cyls = robot.vertical_cylinders()
+    mount = robot.pose("base_laser_link")
+    plain = UrgLaser(mount, LaserConfig(noise=0.0), robot_cylinders=cyls)
+    seeing = UrgLaser(mount, LaserConfig(noise=0.0, self_hits=True), robot_cylinders=cyls)
+    assert sorted(c[0] for c in seeing.robot_cylinders) == [f"plate_0_standoff_{i}_link" for i in range(4)]
+    scene = Scene(room(6.0))
+    near = seeing.scan(scene, 3.0, 3.0, 0.3)
+    assert np.all(plain.scan(scene, 3.0, 3.0, 0.3) > 0.5)
+    hits = np.abs(seeing.angles[(near > 0) & (near < 0.3)])
+    assert len(hits) >= 2 and np.all((hits > 1.3) & (hits < 1.571)), np.degrees(hits)
+    assert np.all(near[(near > 0) & (near < 0.3)] > 0.12)

@@ -13,6 +13,8 @@ ROS Parameters:
     ~min_ang, ~max_ang (float, -pi/2, pi/2, rad): requested scan span, as hokuyo_node's
         parameters (clipped to the URG-04LX's +-2.0862 rad, rounded to its steps)
     ~laser_noise (float, 0.01, m): range noise std below 1 m (1 % of the range beyond)
+    ~laser_self_hits (bool, false): the scan also sees the robot's own standoffs at laser height,
+        as the real inverted Hokuyo does (laser_filter drops such readings)
     ~laser_rate (float, 10, Hz), ~camera_rate (float, 15, Hz), ~odom_rate (float, 30, Hz)
     ~camera_width, ~camera_height (int, 160, 120, px): Kinect image size (up to 640x480)
     ~depth_noise (float, 0.0012, 1/m): depth noise std = depth_noise * depth^2
@@ -113,7 +115,7 @@ class SimNode:
         self.fake_localization = bool(p("~fake_localization", False))
         seed = int(p("~seed", 0))
         laser = LaserConfig(min_ang=float(p("~min_ang", -math.pi / 2)), max_ang=float(p("~max_ang", math.pi / 2)),
-                            noise=float(p("~laser_noise", 0.01)))
+                            noise=float(p("~laser_noise", 0.01)), self_hits=bool(p("~laser_self_hits", False)))
         camera = CameraConfig(width=int(p("~camera_width", 160)), height=int(p("~camera_height", 120)),
                               depth_noise=float(p("~depth_noise", 0.0012)))
         rates = Rates(laser=float(p("~laser_rate", 10.0)), camera=float(p("~camera_rate", 15.0)),

@@ -62,7 +62,8 @@ class Simulator:
         rng = np.random.default_rng(self.cfg.seed)
         self.base = DiffDriveBase(base_config, *start, rng=np.random.default_rng(rng.integers(1 << 31)))
         self.laser = UrgLaser(robot.pose(self.cfg.laser.frame_id), self.cfg.laser,
-                              rng=np.random.default_rng(rng.integers(1 << 31)))
+                              rng=np.random.default_rng(rng.integers(1 << 31)),
+                              robot_cylinders=robot.vertical_cylinders())
         self.camera = DepthCamera(self.cfg.camera, rng=np.random.default_rng(rng.integers(1 << 31)))
         self.people = {}
         self._scene, self._scene_dirty = None, True
