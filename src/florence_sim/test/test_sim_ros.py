@@ -45,8 +45,12 @@ class Latest:
             return self.msg
 
 
-def _launch(ros_master, rospy, *args):
-    """florence_sim.launch with ``args``; stopped (and /use_sim_time cleared) afterwards."""
+def _launch(ros_master, rospy, tf_buffer, *args):
+    """florence_sim.launch with ``args``; stopped (and /use_sim_time cleared) afterwards.
+
+    The session's tf buffer is cleared before and after: every launch restarts simulated time
+    at 0, and tf2 would drop the new transforms as older than the cached ones."""
+    tf_buffer.clear()
     proc = roslaunch(ros_master, "florence_sim", "florence_sim.launch", *args)
     try:
         yield proc
@@ -54,6 +58,7 @@ def _launch(ros_master, rospy, *args):
         proc.stop()
         if rospy.has_param("/use_sim_time"):
             rospy.delete_param("/use_sim_time")  # later tests on this master run on wall time
+        tf_buffer.clear()
 
 
 def _subscribe(rospy, proc, spec):
@@ -71,7 +76,7 @@ def _unsubscribe(topics):
 
 
 @pytest.fixture(scope="class")
-def small_world(ros_master, rospy_node, tmp_path_factory):
+def small_world(ros_master, rospy_node, tf_buffer, tmp_path_factory):
     import pathlib
 
     types = pathlib.Path(__file__).resolve().parents[3] / "maps" / "florence_types.yaml"
@@ -79,8 +84,8 @@ def small_world(ros_master, rospy_node, tmp_path_factory):
     world.write_text(WORLD.format(types=types))
     nobody = world.parent / "nobody.yaml"
     nobody.write_text("people: []\n")
-    yield from _launch(ros_master, rospy_node, f"world:={world}", f"people:={nobody}", f"real_time_factor:={RTF}",
-                       "x:=3.0", "y:=2.5", "yaw:=0.0")
+    yield from _launch(ros_master, rospy_node, tf_buffer, f"world:={world}", f"people:={nobody}",
+                       f"real_time_factor:={RTF}", "x:=3.0", "y:=2.5", "yaw:=0.0")
 
 
 @pytest.fixture(scope="class")
@@ -179,9 +184,9 @@ def _stepped_drive(rospy, topics, v, w, until, max_seconds):
 
 
 @pytest.fixture(scope="class")
-def apartment(ros_master, rospy_node):
-    yield from _launch(ros_master, rospy_node, f"real_time_factor:={RTF_APARTMENT}", "fake_localization:=true",
-                       "x:=1.2", "y:=3.0", "yaw:=0.0")
+def apartment(ros_master, rospy_node, tf_buffer):
+    yield from _launch(ros_master, rospy_node, tf_buffer, f"real_time_factor:={RTF_APARTMENT}",
+                       "fake_localization:=true", "x:=1.2", "y:=3.0", "yaw:=0.0")
 
 
 @pytest.fixture(scope="class")
