@@ -418,3 +418,22 @@ class TestApartment:
             return math.hypot(tf.transform.translation.x - truth.x, tf.transform.translation.y - truth.y)
 
         wait_for(lambda: error() < 0.02, 30.0, what="map->base_footprint = ground truth")
+
+
+@pytest.mark.ros
+def test_malformed_world_stops_the_node_with_file_and_field(tmp_path):
+    """A private master: the node's private parameters must not leak into other tests."""
+    from florence_harness.processes import ManagedProcess, RosMaster
+
+    world = tmp_path / "bad.world.yaml"
+    world.write_text("map: {resolution: 0.05, bounds: [[0, 0], [4, 4]]}\nobjects:\n  - {type: sofa, pose: [1, 1]}\n")
+    master = RosMaster().start()
+    node = None
+    try:
+        node = ManagedProcess(["rosrun", "florence_sim", "florence_sim_node", f"_world:={world}"], env=master.env())
+        assert node.proc.wait(60) == 1
+        assert f"{world}: objects[0].type: unknown type 'sofa'" in node.output()
+    finally:
+        if node is not None:
+            node.stop()
+        master.stop()

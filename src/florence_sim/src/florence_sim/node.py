@@ -94,64 +94,20 @@ class SimNode:
         from std_srvs.srv import Empty
         from visualization_msgs.msg import MarkerArray
 
-        from florence_sim.base import BaseConfig
         from florence_sim.msg import People
-        from florence_sim.people import load_people
-        from florence_sim.robot_model import RobotModel
-        from florence_sim.sensors import CameraConfig, LaserConfig
-        from florence_sim.sim import Rates, SimConfig, Simulator
         from florence_sim.srv import RemovePerson, SetPerson, SetRobotPose, Step
-        from florence_sim.world import WorldError, load_world
+        from florence_sim.world import WorldError
         from turtlebot_node.msg import TurtlebotSensorState
 
         self.rospy = rospy
-        p = rospy.get_param
-        world_file = p("~world", "") or _default_world()
-        people_file = p("~people_file", "")
-        self.rtf = float(p("~real_time_factor", 1.0))
-        paused = bool(p("~paused", False))
-        dt = float(p("~physics_step", 0.01))
-        start = (float(p("~x", 1.0)), float(p("~y", 2.5)), float(p("~yaw", 0.0)))
-        self.fake_localization = bool(p("~fake_localization", False))
-        seed = int(p("~seed", 0))
-        laser = LaserConfig(min_ang=float(p("~min_ang", -math.pi / 2)), max_ang=float(p("~max_ang", math.pi / 2)),
-                            noise=float(p("~laser_noise", 0.01)), self_hits=bool(p("~laser_self_hits", False)))
-        camera = CameraConfig(width=int(p("~camera_width", 160)), height=int(p("~camera_height", 120)),
-                              depth_noise=float(p("~depth_noise", 0.0012)))
-        rates = Rates(laser=float(p("~laser_rate", 10.0)), camera=float(p("~camera_rate", 15.0)),
-                      odom=float(p("~odom_rate", 30.0)))
-        self.render_always = bool(p("~render_without_subscribers", False))
-        base_params = {
-            "cmd_timeout": float(p("~cmd_vel_timeout", 0.6)),
-            "max_linear_acc": float(p("~max_linear_acc", 1.0)),
-            "max_angular_acc": float(p("~max_angular_acc", 4.0)),
-            "odom_linear_scale_error": float(p("~odom_linear_scale_error", 0.01)),
-            "odom_linear_noise": float(p("~odom_linear_noise", 0.005)),
-            "gyro_scale_error": float(p("~gyro_scale_error", 0.01)),
-            "gyro_noise": float(p("~gyro_noise", 0.002)),
-            "gyro_bias": float(p("~gyro_bias", 0.0)),
-        }
-        if not (math.isfinite(self.rtf) and self.rtf >= 0):
-            raise ValueError(f"~real_time_factor must be >= 0 (0 = unthrottled), got {self.rtf}")
         try:
-            world = load_world(world_file)
-            people = load_people(people_file, world.scene) if people_file else []
-            robot = RobotModel(rospy.get_param("/robot_description")) if rospy.has_param("/robot_description") \
-                else RobotModel.from_xacro()
-            dims = _base_dimensions(robot)
-            base = BaseConfig(radius=dims["radius"], height=robot.height(), wheel_separation=dims["separation"],
-                              **base_params)
-            self.sim = Simulator(world, robot, base, SimConfig(dt=dt, rates=rates, laser=laser, camera=camera,
-                                                               seed=seed), people, start)
-            self.sim.set_robot_pose(*start)
-        except (WorldError, ValueError, KeyError) as exc:
+            world, self.sim, self.rtf, self.fake_localization, self.render_always, paused = self._configure()
+        except (WorldError, ValueError, KeyError, TypeError) as exc:  # nonsense parameters or files
             rospy.logfatal(f"{NAME}: {exc}")
             raise SystemExit(1) from exc
-        self.world_file = world_file
         self.lock = threading.Condition()
         self.paused = paused
         self.pending_steps = 0
-        self.last_bad_cmd = None
         self.achieved_rtf = 0.0
 
         # publishers before subscribers
@@ -191,8 +147,58 @@ class SimNode:
         rospy.Service("~set_robot_pose", SetRobotPose, self._on_set_pose)
         rospy.Service("~set_person", SetPerson, self._on_set_person)
         rospy.Service("~remove_person", RemovePerson, self._on_remove_person)
-        rospy.loginfo(f"{NAME}: world {world_file} ({len(world.scene.names)} primitives), "
+        rospy.loginfo(f"{NAME}: world {world.path} ({len(world.scene.names)} primitives), "
                       f"{len(self.sim.people)} people, real_time_factor {self.rtf or 'unthrottled'}")
+
+    def _configure(self):
+        """Read and validate every ~parameter; load the world, people and robot; build the core."""
+        from florence_sim.base import BaseConfig
+        from florence_sim.people import load_people
+        from florence_sim.robot_model import RobotModel
+        from florence_sim.sensors import CameraConfig, LaserConfig
+        from florence_sim.sim import Rates, SimConfig, Simulator
+        from florence_sim.world import load_world
+
+        rospy = self.rospy
+        p = rospy.get_param
+        world_file = p("~world", "") or _default_world()
+        people_file = p("~people_file", "")
+        rtf = float(p("~real_time_factor", 1.0))
+        if not (math.isfinite(rtf) and rtf >= 0):
+            raise ValueError(f"~real_time_factor must be >= 0 (0 = unthrottled), got {rtf}")
+        paused = bool(p("~paused", False))
+        dt = float(p("~physics_step", 0.01))
+        start = (float(p("~x", 1.0)), float(p("~y", 2.5)), float(p("~yaw", 0.0)))
+        fake_localization = bool(p("~fake_localization", False))
+        seed = int(p("~seed", 0))
+        laser = LaserConfig(min_ang=float(p("~min_ang", -math.pi / 2)), max_ang=float(p("~max_ang", math.pi / 2)),
+                            noise=float(p("~laser_noise", 0.01)), self_hits=bool(p("~laser_self_hits", False)))
+        camera = CameraConfig(width=int(p("~camera_width", 160)), height=int(p("~camera_height", 120)),
+                              depth_noise=float(p("~depth_noise", 0.0012)))
+        rates = Rates(laser=float(p("~laser_rate", 10.0)), camera=float(p("~camera_rate", 15.0)),
+                      odom=float(p("~odom_rate", 30.0)))
+        render_always = bool(p("~render_without_subscribers", False))
+        base_params = {
+            "cmd_timeout": float(p("~cmd_vel_timeout", 0.6)),
+            "max_linear_acc": float(p("~max_linear_acc", 1.0)),
+            "max_angular_acc": float(p("~max_angular_acc", 4.0)),
+            "odom_linear_scale_error": float(p("~odom_linear_scale_error", 0.01)),
+            "odom_linear_noise": float(p("~odom_linear_noise", 0.005)),
+            "gyro_scale_error": float(p("~gyro_scale_error", 0.01)),
+            "gyro_noise": float(p("~gyro_noise", 0.002)),
+            "gyro_bias": float(p("~gyro_bias", 0.0)),
+        }
+        world = load_world(world_file)
+        people = load_people(people_file, world.scene) if people_file else []
+        robot = RobotModel(p("/robot_description")) if rospy.has_param("/robot_description") \
+            else RobotModel.from_xacro()
+        dims = _base_dimensions(robot)
+        base = BaseConfig(radius=dims["radius"], height=robot.height(), wheel_separation=dims["separation"],
+                          **base_params)
+        sim = Simulator(world, robot, base, SimConfig(dt=dt, rates=rates, laser=laser, camera=camera, seed=seed),
+                        people, start)
+        sim.set_robot_pose(*start)
+        return world, sim, rtf, fake_localization, render_always, paused
 
     # ------------------------------------------------------------------ callbacks
     def _on_cmd_vel(self, msg):
