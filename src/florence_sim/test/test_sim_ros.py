@@ -256,7 +256,8 @@ class TestSmallWorld:
         s0, w0 = _sim_now(topics), time.monotonic()
         wait_for(lambda: time.monotonic() - w0 > 3.0, 10.0)
         factor = (_sim_now(topics) - s0) / (time.monotonic() - w0)
-        assert 0.6 * RTF < factor < 1.1 * RTF, f"achieved {factor:.2f}x, requested {RTF}x"
+        # never faster than requested; slower only as far as a loaded machine explains
+        assert 0.5 * RTF < factor < 1.1 * RTF, f"achieved {factor:.2f}x, requested {RTF}x"
 
     @pytest.mark.ros
     def test_straight_metre_and_quarter_turn_end_near_ground_truth(self, topics, rospy_node):

@@ -108,7 +108,7 @@ class Observer:
         self.subs = []
         for topic, (module, name) in RATES.items():
             cls = getattr(importlib.import_module(module), name) if topic in self.CONTENT else rospy.AnyMsg
-            self.subs.append(rospy.Subscriber(topic, cls, self._callback(topic), queue_size=5))
+            self.subs.append(rospy.Subscriber(topic, cls, self._callback(topic), queue_size=100))
 
     def _callback(self, topic):
         def cb(msg):

@@ -112,7 +112,7 @@ class SimNode:
 
         # publishers before subscribers
         P = rospy.Publisher
-        self.pub_clock = P("/clock", Clock, queue_size=10)
+        self.pub_clock = P("/clock", Clock, queue_size=100)  # 100 Hz sim time: a slow reader may lag
         self.pub_odom = P("odom", Odometry, queue_size=10)
         self.pub_imu = P("imu/data", Imu, queue_size=10)
         self.pub_state = P("turtlebot_node/sensor_state", TurtlebotSensorState, queue_size=10)
