@@ -245,11 +245,12 @@ class TestSmallWorld:
         left = sideways[sideways[:, 1] > 0]
         right = sideways[sideways[:, 1] < 0]
         assert len(left) and len(right), "beams straight to both sides"
-        assert np.allclose(left[:, 1], 3.45, atol=0.06), left
-        assert np.allclose(right[:, 1], -2.45, atol=0.06), right
+        # range noise is 1 % of the range (sigma 0.035 m at 3.45 m): medians, and every point within 5 sigma
+        assert np.median(left[:, 1]) == pytest.approx(3.45, abs=0.04) and np.all(np.abs(left[:, 1] - 3.45) < 0.18)
+        assert np.median(right[:, 1]) == pytest.approx(-2.45, abs=0.04) and np.all(np.abs(right[:, 1] + 2.45) < 0.13)
         # and the transformed scan matches the room: the east wall (face x = 5.95) is 2.95 m ahead
         ahead = base[np.abs(base[:, 1]) < 0.1]
-        assert np.allclose(ahead[:, 0], 2.95, atol=0.06)
+        assert len(ahead) and np.median(ahead[:, 0]) == pytest.approx(2.95, abs=0.04)
 
     @pytest.mark.ros
     def test_sim_time_advances_at_the_requested_factor(self, topics):
