@@ -60,8 +60,9 @@ import time
 
 import numpy as np
 
+from florence_sim.sim import TILT_JOINT
+
 NAME = "florence_sim"
-TILT_JOINT = "camera_tilt_joint"
 # odometry covariance (x, y, z, roll, pitch, yaw) [m^2, rad^2]: planar, z and tilts unknown
 ODOM_COVARIANCE = np.diag([1e-3, 1e-3, 1e6, 1e6, 1e6, 1e-3]).ravel().tolist()
 
