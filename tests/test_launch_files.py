@@ -19,10 +19,6 @@ from florence_harness import workspace
 PENDING = {
     ("turtlebot_node", "turtlebot_node.py"): "issue 7 (Create driver)",
     ("hokuyo_node", "hokuyo_node"): "issue 7 (Hokuyo driver)",
-    ("laser_filter", "laser_filter_node"): "issue 4",
-    ("velocity_filter", "velocity_filter_node"): "issue 4",
-    ("laser_combinator", "laser_combinator_node"): "issue 4",
-    ("pointcloud_to_laserscan", "pointcloud_to_laserscan_node"): "issue 4",
     ("map_server", "map_server"): "issue 5",
     ("amcl", "amcl"): "issue 5",
     ("move_base", "move_base"): "issue 6",
