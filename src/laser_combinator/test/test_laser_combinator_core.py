@@ -114,3 +114,35 @@ def test_empty_scans_give_defined_output():
     assert grid.size == 0 and out.size == 0
     grid, out, _ = combine(hokuyo(), empty, I4, ROLL_PI, max_ang=3.0)
     assert out == pytest.approx(np.full(N, 3.0))
+
+
+def laser_msg(ranges, intensities=(), inc=INC):
+    from sensor_msgs.msg import LaserScan
+
+    return LaserScan(angle_min=-(len(ranges) // 2) * inc, angle_increment=inc, range_min=0.02, range_max=5.6,
+                     ranges=list(ranges), intensities=list(intensities))
+
+
+def test_message_fields_follow_table_10_and_mismatched_intensities_are_dropped():
+    from laser_combinator.node import combined_scan
+
+    h = laser_msg([3.0] * 11, intensities=range(11))
+    h.header.frame_id, h.time_increment, h.scan_time = "base_laser_link", 1e-4, 0.1
+    k = laser_msg([1.0] * 3, inc=0.001)
+    k.range_min, k.range_max = 0.45, 4.0
+    out = combined_scan(h, k, I4, I4, "base_laser_round_link", 1.57)
+    assert out.header.frame_id == "base_laser_round_link"
+    assert (out.range_min, out.range_max, out.scan_time) == (0.02, 4.0, 0.1)
+    assert list(out.intensities) == list(range(11)) and len(out.ranges) == 11
+    h.intensities = [1.0, 2.0]
+    assert list(combined_scan(h, k, I4, I4, "x", 1.57).intensities) == []
+
+
+@pytest.mark.parametrize("field, value", [("angle_increment", 0.0), ("angle_min", math.nan), ("range_max", math.inf)])
+def test_malformed_scan_messages_are_value_errors(field, value):
+    from laser_combinator.node import combined_scan
+
+    bad = laser_msg([1.0] * 5)
+    setattr(bad, field, value)
+    with pytest.raises(ValueError, match=field):
+        combined_scan(laser_msg([3.0] * 5), bad, I4, I4, "x", 1.57)

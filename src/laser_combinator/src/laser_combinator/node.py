@@ -55,6 +55,21 @@ def matrix(transform):
     return m
 
 
+def combined_scan(hokuyo_msg, kinect_msg, t_hokuyo, t_kinect, frame_id, max_ang):
+    """The /scan_combined message of two scans, given the 4x4 transforms of their frames into ``frame_id``."""
+    hokuyo, kinect = scan_from_msg(hokuyo_msg), scan_from_msg(kinect_msg)
+    grid, ranges, first = combine(hokuyo, kinect, t_hokuyo, t_kinect, max_ang)
+    out = LaserScan(header=Header(stamp=hokuyo_msg.header.stamp, frame_id=frame_id),
+                    angle_min=grid.angle_min, angle_increment=grid.angle_increment,
+                    angle_max=grid.angle_min + grid.angle_increment * max(grid.size - 1, 0),
+                    time_increment=hokuyo_msg.time_increment, scan_time=hokuyo_msg.scan_time,
+                    range_min=hokuyo_msg.range_min, range_max=kinect_msg.range_max)
+    out.ranges = ranges.tolist()
+    if len(hokuyo_msg.intensities) == len(hokuyo_msg.ranges) and hokuyo_msg.angle_increment > 0:
+        out.intensities = hokuyo_msg.intensities[first:first + grid.size]
+    return out
+
+
 class LaserCombinatorNode:
     def __init__(self):
         self.frame_id = str(rospy.get_param("~frame_id", "/base_laser_round_link")).lstrip("/")
@@ -102,18 +117,9 @@ class LaserCombinatorNode:
         if not hokuyo_msg.header.frame_id:
             return None, "the Hokuyo scan has no frame_id"
         kinect_frame = kinect_msg.header.frame_id or self.kinect_frame_id
-        hokuyo, kinect = scan_from_msg(hokuyo_msg), scan_from_msg(kinect_msg)
-        grid, ranges, first = combine(hokuyo, kinect, self.transform_to_output(hokuyo_msg.header.frame_id),
-                                      self.transform_to_output(kinect_frame), self.max_ang)
-        out = LaserScan(header=Header(stamp=hokuyo_msg.header.stamp, frame_id=self.frame_id),
-                        angle_min=grid.angle_min, angle_increment=grid.angle_increment,
-                        angle_max=grid.angle_min + grid.angle_increment * max(grid.size - 1, 0),
-                        time_increment=hokuyo_msg.time_increment, scan_time=hokuyo_msg.scan_time,
-                        range_min=hokuyo_msg.range_min, range_max=kinect_msg.range_max)
-        out.ranges = ranges.tolist()
-        if len(hokuyo_msg.intensities) == len(hokuyo_msg.ranges) and hokuyo_msg.angle_increment > 0:
-            out.intensities = hokuyo_msg.intensities[first:first + grid.size]
-        return out, None
+        t_hokuyo = self.transform_to_output(hokuyo_msg.header.frame_id)
+        t_kinect = self.transform_to_output(kinect_frame)
+        return combined_scan(hokuyo_msg, kinect_msg, t_hokuyo, t_kinect, self.frame_id, self.max_ang), None
 
 
 def main():
