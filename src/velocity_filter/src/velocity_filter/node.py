@@ -21,6 +21,7 @@ Publishers:
 
 import contextlib
 import threading
+import warnings
 
 import rospy
 from geometry_msgs.msg import Twist
@@ -40,7 +41,12 @@ class VelocityFilterNode:
             raise ValueError("; ".join(problems))
         self.filter = VelocityFilter(limits)
         self._lock = threading.Lock()
-        self.pub = rospy.Publisher("filtered_cmd_vel", Twist, queue_size=1)
+        # Synchronous publishing (queue_size=None) without Nagle: the motor command leaves in
+        # the timer thread itself, one thread hop less of period jitter (bench/filters.py).
+        # rospy warns about queue_size=None on principle; here it is deliberate.
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", SyntaxWarning)
+            self.pub = rospy.Publisher("filtered_cmd_vel", Twist, queue_size=None, tcp_nodelay=True)
         self.sub = rospy.Subscriber("cmd_vel", Twist, self.on_cmd_vel, queue_size=1)
         self.timer = rospy.Timer(rospy.Duration(1.0 / limits.publishing_rate), self.on_timer)
         rospy.loginfo(LOG + "%s", limits)
