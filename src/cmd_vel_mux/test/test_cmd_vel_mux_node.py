@@ -1,7 +1,6 @@
 """cmd_vel_mux_node against a private master: priority take-over, timeout hand-back, idle
 stop; and the launch files wiring every producer into it."""
 
-import threading
 import time
 
 import pytest
@@ -15,29 +14,23 @@ from florence_harness.processes import wait_for
 TELEOP_TIMEOUT = 0.5  # [s] config/cmd_vel_mux.yaml
 
 
-class Stream:
-    """Publishes a Twist with linear.x = ``value`` at ``hz`` from a thread until stopped."""
+def stream(rospy, pub, value, hz=20.0):
+    """Publish linear.x = ``value`` at ``hz`` from a rospy timer; returns (timer, record of the last send)."""
+    from geometry_msgs.msg import Twist
 
-    def __init__(self, pub, value, hz=20.0):
-        from geometry_msgs.msg import Twist
+    msg, sent = Twist(), {}
+    msg.linear.x = value
 
-        self.msg = Twist()
-        self.msg.linear.x = value
-        self.pub, self.period = pub, 1.0 / hz
-        self.last_sent = None
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, daemon=True)
-        self._thread.start()
+    def tick(_event):
+        pub.publish(msg)
+        sent["last"] = time.monotonic()
 
-    def _run(self):
-        while not self._stop.is_set():
-            self.pub.publish(self.msg)
-            self.last_sent = time.monotonic()
-            self._stop.wait(self.period)
+    return rospy.Timer(rospy.Duration(1.0 / hz), tick), sent
 
-    def stop(self):
-        self._stop.set()
-        self._thread.join()
+
+def stop(timer):
+    timer.shutdown()
+    timer.join()
 
 
 @pytest.mark.ros
@@ -57,29 +50,30 @@ def test_priority_take_over_timeout_hand_back_and_idle_stop(ros_master, rospy_no
         wait_for(lambda: active and active[-1][1] == "idle", 30.0, what="latched 'idle' at start")
         wait_for(lambda: nav.get_num_connections() and teleop.get_num_connections() and sub.get_num_connections(),
                  30.0, what="connections")
-        streams.append(Stream(nav, 0.1))
+        streams.append(stream(rospy, nav, 0.1)[0])
         wait_for(lambda: out and out[-1][1] == 0.1 and active[-1][1] == "move_base", 10.0, what="move_base forwarded")
 
-        streams.append(Stream(teleop, 0.3))
+        teleop_timer, teleop_sent = stream(rospy, teleop, 0.3)
+        streams.append(teleop_timer)
         wait_for(lambda: active[-1][1] == "teleop", 10.0, what="teleop takes over")
         took_over = active[-1][0]
         wait_for(lambda: len([1 for t, _ in out if t > took_over]) >= 10, 10.0, what="teleop forwarded")
         # While teleop is fresh, move_base (still streaming) is not forwarded.
         assert {v for t, v in out if t > took_over + 0.05} == {0.3}
 
-        streams[1].stop()
-        silent_from = streams[1].last_sent
+        stop(teleop_timer)
+        silent_from = teleop_sent["last"]
         wait_for(lambda: active[-1][1] == "move_base", 10.0, what="hand-back to move_base")
         handed_back = active[-1][0]
         assert TELEOP_TIMEOUT - 0.05 <= handed_back - silent_from <= TELEOP_TIMEOUT + 0.3
         wait_for(lambda: out[-1][1] == 0.1, 5.0, what="move_base forwarded again")
 
-        streams[0].stop()
+        stop(streams[0])
         wait_for(lambda: active[-1][1] == "idle", 10.0, what="idle after move_base stops")
         wait_for(lambda: out[-1][1] == 0.0, 5.0, what="one zero Twist when idle")
     finally:
-        for s in streams:
-            s.stop()
+        for timer in streams:
+            stop(timer)
         for handle in (sub, sub_active, nav, teleop):
             handle.unregister()
         if not proc.running():

@@ -100,9 +100,19 @@ def points_to_ranges(points, t_target, t_height, params):
     x = pts @ rt[0, :3] + rt[0, 3]
     y = pts @ rt[1, :3] + rt[1, 3]
     h = pts @ rh[2, :3] + rh[2, 3]
-    r = np.hypot(x, y)
+    return planar_ranges(x, y, h, params)
+
+
+def in_band(h, r, params):
+    """Points whose height h [m] and range r [m] the scan keeps (NaN never)."""
     with np.errstate(invalid="ignore"):
-        keep = (h >= params.min_height) & (h <= params.max_height) & (r >= params.range_min) & (r <= params.range_max)
+        return (h >= params.min_height) & (h <= params.max_height) & (r >= params.range_min) & (r <= params.range_max)
+
+
+def planar_ranges(x, y, h, params):
+    """Scan ranges of points at (x, y) [m] in the target frame with heights h [m]."""
+    r = np.hypot(x, y)
+    keep = in_band(h, r, params)
     idx = beam_index(x[keep], y[keep], params)
     inside = idx >= 0
     return nearest_per_beam(idx[inside], r[keep][inside], params.size, params.no_return())
@@ -169,18 +179,10 @@ class DepthProjector:
         h = z * self._hz + self._h0
         if self._fast:
             r = z * self._scale
-            with np.errstate(invalid="ignore"):
-                keep = (h >= p.min_height) & (h <= p.max_height) & (r >= p.range_min) & (r <= p.range_max)
+            keep = in_band(h, r, p)
             out = np.full(p.size, p.no_return(), dtype=np.float32)
             if self._pixels.size:
                 masked = np.where(keep, r, np.float32(np.inf))[self._pixels]
                 out[self._beams] = np.minimum(np.minimum.reduceat(masked, self._starts), p.no_return())
             return out
-        x = z * self._ax + self._tx
-        y = z * self._ay + self._ty
-        r = np.hypot(x, y)
-        with np.errstate(invalid="ignore"):
-            keep = (h >= p.min_height) & (h <= p.max_height) & (r >= p.range_min) & (r <= p.range_max)
-        idx = beam_index(x[keep], y[keep], p)
-        inside = idx >= 0
-        return nearest_per_beam(idx[inside], r[keep][inside], p.size, p.no_return())
+        return planar_ranges(z * self._ax + self._tx, z * self._ay + self._ty, h, p)
