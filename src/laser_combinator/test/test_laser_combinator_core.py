@@ -101,6 +101,13 @@ def test_hokuyo_reading_beyond_the_kinect_range_is_kept():
     assert out == pytest.approx(np.full(N, 5.0))
 
 
+def test_beams_rounded_past_max_ang_by_the_driver_are_kept():
+    """Regression: hokuyo_node rounds max_ang 1.570 to 256 steps (1.5708 rad); those edge
+    beams were cropped, so the combined scan was 2 beams shorter than the laser's."""
+    grid, first = crop_grid(hokuyo(np.full(513, 3.0)), 1.570)
+    assert (grid.size, first) == (513, 0)
+
+
 def test_grid_is_cropped_to_max_ang():
     grid, first = crop_grid(hokuyo(), 1.0)
     assert grid.angle_min == pytest.approx(-1.0, abs=INC)

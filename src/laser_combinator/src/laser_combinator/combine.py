@@ -45,11 +45,12 @@ def valid_mask(scan):
 
 
 def crop_grid(scan, max_ang):
-    """The Hokuyo grid restricted to [-max_ang, max_ang]: (Grid, first index used)."""
+    """The Hokuyo grid restricted to [-max_ang, max_ang] (to the nearest step): (Grid, first index used)."""
     n = len(scan.ranges)
     inc = scan.angle_increment
     angles = scan.angle_min + inc * np.arange(n)
-    inside = np.flatnonzero(np.abs(angles) <= max_ang + 1e-6)
+    # Half a step of slack: hokuyo_node rounds max_ang to whole steps (1.570 -> 256 steps = 1.5708).
+    inside = np.flatnonzero(np.abs(angles) <= max_ang + 0.5 * abs(inc))
     if inside.size == 0:
         return Grid(scan.angle_min, abs(inc), 0), 0
     first, last = int(inside[0]), int(inside[-1])
