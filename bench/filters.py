@@ -154,8 +154,10 @@ def main():
     parser.add_argument("--seconds", type=float, default=10.0, help="velocity_filter jitter measurement [s]")
     parser.add_argument("--repeat", type=int, default=2000, help="calls per scan benchmark")
     args = parser.parse_args()
+    load_before = os.getloadavg()[0]
     results = processing_times(args.repeat)
     results["velocity_filter_jitter"] = velocity_filter_jitter(args.seconds)
+    load = {"loadavg_1min_before": load_before, "loadavg_1min_after": os.getloadavg()[0], "cpus": os.cpu_count()}
     for name, r in results.items():
         target = TARGETS_MS.get(name)
         r["target_p99_ms"] = target
@@ -163,6 +165,9 @@ def main():
         verdict = "" if target is None else f"  target p99 <= {target} ms: {'ok' if r['meets_target'] else 'MISSED'}"
         print(f"{name:42s} p50 {r['p50_ms']:7.3f} ms  p99 {r['p99_ms']:7.3f} ms  max {r['max_ms']:7.3f} ms{verdict}")
     print(f"velocity_filter mean rate: {results['velocity_filter_jitter']['mean_rate_hz']:.2f} Hz")
+    print(f"machine load (1 min average) {load['loadavg_1min_before']:.2f} -> {load['loadavg_1min_after']:.2f}"
+          f" on {load['cpus']} CPUs: figures on a loaded machine are the machine's, not the code's")
+    results["machine"] = load
     RESULTS.parent.mkdir(parents=True, exist_ok=True)
     tmp = RESULTS.with_suffix(".json.tmp")
     tmp.write_text(json.dumps(results, indent=2))

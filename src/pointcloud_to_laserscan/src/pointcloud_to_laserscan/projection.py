@@ -73,7 +73,9 @@ def nearest_per_beam(beam, ranges, size, fill):
     out = np.full(size, fill, dtype=np.float32)
     if beam.size == 0:
         return out
-    order = np.argsort(beam, kind="stable")
+    # A stable sort of 16-bit keys is a radix sort in numpy: O(n), several times faster.
+    keys = beam.astype(np.int16) if size <= np.iinfo(np.int16).max else beam
+    order = np.argsort(keys, kind="stable")
     sorted_beam = beam[order]
     starts = np.flatnonzero(np.r_[True, sorted_beam[1:] != sorted_beam[:-1]])
     out[sorted_beam[starts]] = np.minimum.reduceat(ranges[order], starts)
