@@ -1,2 +1,2 @@
 #!/usr/bin/python3
-from turtlebot_node.node import main; main()  # noqa: E702, I001 - the two-line executable
+import sys; del sys.path[0]; from turtlebot_node.node import main; main()  # noqa: E402, E702, I001 - this file would shadow the package

@@ -1,9 +1,9 @@
 """The Create emulator follows the specification's mode rules and drive semantics."""
 
 import pytest
+from turtlebot_node.create_emulator import CreateEmulator
 
 from turtlebot_node import oi_spec as oi
-from turtlebot_node.create_emulator import CreateEmulator
 
 
 def started(mode_opcode=oi.FULL):

@@ -4,10 +4,10 @@ against the independently written emulator."""
 import math
 
 import pytest
+from turtlebot_node.create_emulator import CreateEmulator
 
 from turtlebot_node import create_oi
 from turtlebot_node import oi_spec as oi
-from turtlebot_node.create_emulator import CreateEmulator
 
 
 @pytest.mark.parametrize(("encoded", "expected"), [

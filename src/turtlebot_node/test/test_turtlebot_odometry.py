@@ -3,11 +3,11 @@
 import math
 
 import pytest
+from turtlebot_node.create_emulator import CreateEmulator
+from turtlebot_node.odometry import Gyro, Odometry
 
 from turtlebot_node import create_oi
 from turtlebot_node import oi_spec as oi
-from turtlebot_node.create_emulator import CreateEmulator
-from turtlebot_node.odometry import Gyro, Odometry
 
 STILL = {"distance": 0, "angle": 0, "requested_right_velocity": 0, "requested_left_velocity": 0}
 
