@@ -5,10 +5,10 @@ import math
 
 import numpy as np
 import pytest
+from hokuyo_node.urg_emulator import UrgEmulator
 
 from hokuyo_node import scip
 from hokuyo_node import scip_spec as spec
-from hokuyo_node.urg_emulator import UrgEmulator
 
 URG = scip.Geometry.from_info({k: str(v) for k, v in spec.URG_04LX.items()})
 
