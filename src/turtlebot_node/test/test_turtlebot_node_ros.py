@@ -14,7 +14,7 @@ from turtlebot_node import oi_spec as oi
 
 pytestmark = pytest.mark.ros
 
-NODE = Path(__file__).resolve().parents[1] / "nodes" / "turtlebot_node.py"
+NODE = Path(__file__).resolve().parents[1] / "scripts" / "turtlebot_node.py"
 NS = "/tb_test"
 GYRO_GAIN = 1.25  # the emulated gyro reads 1/1.25 of the true rate; the driver is told so
 

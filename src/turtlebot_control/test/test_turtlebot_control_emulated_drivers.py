@@ -1,0 +1,42 @@
+"""The seed's driver includes start the real drivers; with emulator:=true they run against the
+protocol emulators on pseudo-terminals, and odom, tf and the scan come out under the seed's names."""
+
+import threading
+
+import pytest
+
+from florence_harness.processes import wait_for
+
+pytestmark = pytest.mark.ros
+
+
+def test_emulated_drivers_launch(launch, rospy_node, tmp_path):
+    from nav_msgs.msg import Odometry
+    from sensor_msgs.msg import LaserScan
+
+    from turtlebot_node.msg import TurtlebotSensorState
+
+    got = {}
+    lock = threading.Lock()
+
+    def keep(key):
+        def callback(msg):
+            with lock:
+                got[key] = msg
+        return callback
+
+    subs = [rospy_node.Subscriber("/scan", LaserScan, keep("scan")),
+            rospy_node.Subscriber("/odom", Odometry, keep("odom")),
+            rospy_node.Subscriber("/turtlebot_node/sensor_state", TurtlebotSensorState, keep("state"))]
+    try:
+        launch("turtlebot_control", "emulated_drivers.launch", f"port:={tmp_path}/ttyCreate",
+               f"laser_port:={tmp_path}/ttyHokuyo")
+        wait_for(lambda: len(got) == 3, 60.0, what="/scan, /odom and ~sensor_state from the emulated drivers")
+        with lock:
+            scan, odom, state = got["scan"], got["odom"], got["state"]
+        assert scan.header.frame_id == "base_laser_link" and len(scan.ranges) == 511
+        assert (odom.header.frame_id, odom.child_frame_id) == ("odom", "base_footprint")
+        assert state.oi_mode == 3
+    finally:
+        for sub in subs:
+            sub.unregister()
