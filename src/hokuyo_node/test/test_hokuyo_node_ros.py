@@ -57,8 +57,8 @@ class Laser:
         self.device.close()
 
 
-def start_node(ros_master, link, *params):
-    return ManagedProcess(["/usr/bin/python3", str(NODE), "__name:=hokuyo_node", f"__ns:={NS}", f"_port:={link}",
+def start_node(ros_master, link, *params, ns=NS):
+    return ManagedProcess(["/usr/bin/python3", str(NODE), "__name:=hokuyo_node", f"__ns:={ns}", f"_port:={link}",
                            "_frame_id:=base_laser_link", "_min_ang:=-1.570", "_max_ang:=1.570",
                            "_reconnect_interval:=0.2", *params], env=ros_master.env(), name="hokuyo_node")
 
@@ -157,3 +157,24 @@ def test_port_loss_and_return(laser):
     before = laser.count()
     wait_for(lambda: laser.count() > before + 3, 10.0, what="scans after the reconnect")
     assert pid_alive(laser.proc.pid)
+
+
+def test_uncalibrated_stamps_follow_arrival_plus_time_offset(ros_master, rospy_node, tmp_path):
+    from sensor_msgs.msg import LaserScan
+
+    link = str(tmp_path / "ttyACM")
+    ages = []
+    device = PtyDevice(UrgEmulator(ranges=lambda _now: PATTERN), link=link).start()
+    sub = rospy_node.Subscriber("/hokuyo_offset/scan", LaserScan,
+                                lambda msg: ages.append((rospy_node.Time.now() - msg.header.stamp).to_sec()))
+    proc = start_node(ros_master, link, "_calibrate_time:=false", "_time_offset:=-2.0", ns="/hokuyo_offset")
+    try:
+        wait_for(lambda: len(ages) >= 3, 30.0, what="scans with a time offset")
+        assert min(ages[-3:]) >= 2.0 and max(ages[-3:]) < 2.5  # stamped 2 s before arrival
+    except Exception:
+        print(proc.output())
+        raise
+    finally:
+        sub.unregister()
+        proc.stop()
+        device.close()

@@ -224,6 +224,7 @@ def test_line_noise_is_counted_and_survived(robot):
     wait_for(lambda: int(robot.diag()[2].get("stalls", 0)) >= 1 and robot.emulator.streaming, 10.0,
              what="stream set up again after the stall")
     assert pid_alive(robot.proc.pid)
+    assert values["modem_lines"] == "False"  # the pty refused the RTS wake-up, and that was fine
 
 
 def test_port_loss_and_return(robot):

@@ -9,7 +9,8 @@ from turtlebot_node.odometry import Gyro, Odometry
 from turtlebot_node import create_oi
 from turtlebot_node import oi_spec as oi
 
-STILL = {"distance": 0, "angle": 0, "requested_right_velocity": 0, "requested_left_velocity": 0}
+STILL = {"distance": 0, "angle": 0, "requested_right_velocity": 0, "requested_left_velocity": 0,
+         "requested_velocity": 0}
 
 
 @pytest.mark.parametrize(("raw", "scale", "expected_dps"), [
@@ -54,6 +55,14 @@ def test_gyro_heading_replaces_encoder_angle_once_calibrated():
     raw = 512 - 512 * 60 / 150  # 60 deg/s
     odo.update(frame(angle=5, user_analog_input=raw, requested_right_velocity=100, requested_left_velocity=-100))
     assert odo.pose.theta == pytest.approx(math.radians(60) * 0.015)  # the encoders' 5 deg are not used
+
+
+def test_a_turn_commanded_with_drive_does_not_move_the_gyro_zero():
+    # Regression: Drive (137) leaves the requested wheel velocities (41, 42) at 0 while turning.
+    odo = Odometry(Gyro(150.0, 1.0))
+    odo.update(frame())
+    odo.update(frame(angle=2, requested_velocity=100, user_analog_input=400))
+    assert odo.gyro.offset == 512
 
 
 def test_implausible_increments_are_rejected():

@@ -3,8 +3,8 @@
 Formulas (those of the original ROS turtlebot_node, gyro.py and turtlebot_node.py):
 
 - Gyro zero (``cal_offset``): the mean of the last 1000 analog readings taken
-  while the robot stands still (requested right and left velocity 0 and
-  distance 0).
+  while the robot stands still (original: requested right and left velocity 0
+  and distance 0; here also angle 0 and Drive velocity 0).
 - Gyro rate [rad/s], counter-clockwise positive::
 
       rate = -(raw - cal_offset) / cal_offset * gyro_measurement_range * pi/180 * gyro_scale_correction
@@ -30,6 +30,10 @@ from dataclasses import dataclass
 GYRO_CALIBRATION_SAMPLES = 1000  # readings averaged for the zero (original cal_buffer_length)
 MAX_FRAME_DISTANCE = 1.0  # [m] larger increments are junk (the original's plausibility check)
 MAX_FRAME_ANGLE = 1.0  # [rad]
+# The robot stands still (gyro zero may be sampled) when all of these are 0. The original looked at
+# the requested wheel velocities and the distance; the angle and the Drive velocity are added so a
+# turn on the spot commanded with Drive (137) cannot pollute the zero.
+STATIONARY_KEYS = ("requested_right_velocity", "requested_left_velocity", "requested_velocity", "distance", "angle")
 
 
 @dataclass
@@ -85,8 +89,7 @@ class Odometry:
         dtheta = angle
         self.gyro_rate = None
         if self.gyro is not None:
-            stationary = (frame["requested_right_velocity"] == 0 and frame["requested_left_velocity"] == 0
-                          and frame["distance"] == 0)
+            stationary = all(frame[key] == 0 for key in STATIONARY_KEYS)
             self.gyro.update_calibration(frame["user_analog_input"], stationary)
             rate = self.gyro.rate(frame["user_analog_input"])
             if rate is not None:
