@@ -144,7 +144,8 @@ def test_stale_laser_and_unknown_frames_stop_output_until_inputs_are_good_again(
         assert not [t for t, _ in out if t > bad_from + 0.2], "published from a Kinect frame tf does not know"
 
         kinect.stop()
-        kinect = Repeater(rospy_node, kinect_pub, kinect_scan())
+        # A tf1-style frame with a leading "/" is good too (regression: tf2 refused it).
+        kinect = Repeater(rospy_node, kinect_pub, kinect_scan(frame="/camera_depth_frame"))
         good_from = time.monotonic()
         wait_for(lambda: any(t > good_from for t, _ in out), 20.0, what="output once the inputs are good again")
     finally:

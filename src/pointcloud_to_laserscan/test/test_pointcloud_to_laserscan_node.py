@@ -122,7 +122,8 @@ def test_point_cloud_in_band_and_below(robot, rospy_node):
         points = [(1.5, 0.0, 0.0),  # ahead at camera height: kept
                   (1.0, 0.0, -cam_height + 0.01),  # 1 cm above the floor: dropped
                   (2.0, 1.0, 0.0)]  # 26.6 degrees left
-        cloud = point_cloud2.create_cloud_xyz32(Header(frame_id="camera_depth_frame"), points)
+        # tf1-style frame name with a leading "/" (regression: tf2 refused it)
+        cloud = point_cloud2.create_cloud_xyz32(Header(frame_id="/camera_depth_frame"), points)
         scan = send_until_scan(rospy_node, [(pub, cloud)], scans["cloud"], "scan of a cloud")
         r = np.array(scan.ranges)
         assert r[180] == pytest.approx(1.5, abs=1e-5)

@@ -93,7 +93,8 @@ class LaserCombinatorNode:
         self.hokuyo = (msg, rospy.get_time())
 
     def transform_to_output(self, frame):
-        return matrix(self.tf_buffer.lookup_transform(self.frame_id, frame, rospy.Time(0)).transform)
+        # tf2 refuses a leading "/" (tf1 style, as older drivers stamp): accept it.
+        return matrix(self.tf_buffer.lookup_transform(self.frame_id, frame.lstrip("/"), rospy.Time(0)).transform)
 
     def on_kinect_scan(self, kinect_msg):
         try:

@@ -115,6 +115,7 @@ class PointCloudToLaserScanNode:
                          rospy.Subscriber("image", Image, self.on_image, queue_size=1, buff_size=2 ** 24)]
 
     def transforms(self, source_frame):
+        source_frame = source_frame.lstrip("/")  # tf2 refuses the tf1-style leading "/"
         if not source_frame:
             raise ValueError("input has no frame_id")
         lookup = self.tf_buffer.lookup_transform
