@@ -293,8 +293,8 @@ class Scene:
         if not len(self.face_a):
             return np.zeros(0, dtype=int)
         zr = self.face_z
-        box_ok = _segment_distance(origin, self.face_a, self.face_b) <= reach
-        return np.nonzero(box_ok & (zr[:, 0] <= z_hi) & (zr[:, 1] >= z_lo))[0]
+        near = _segment_distance(origin, self.face_a, self.face_b) <= reach
+        return np.nonzero(near & (zr[:, 0] <= z_hi) & (zr[:, 1] >= z_lo))[0]
 
     def _boxes_near(self, origin, reach):
         if not len(self.box_center):
