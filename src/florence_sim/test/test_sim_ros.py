@@ -129,11 +129,11 @@ def _sim_now(topics):
     return topics["clock"].get().clock.to_sec()
 
 
-def _drive(rospy, topics, v, w, until, sim_limit):
+def _drive(publisher, topics, v, w, until, sim_limit):
     """Publish cmd_vel at 50 Hz (wall) until ``until()`` or ``sim_limit`` simulated seconds pass; then stop."""
     from geometry_msgs.msg import Twist
 
-    pub = rospy.Publisher("/cmd_vel", Twist, queue_size=1)
+    pub = publisher("/cmd_vel", Twist)
     wait_for(lambda: pub.get_num_connections() > 0, 30.0, what="cmd_vel subscriber")
     start = _sim_now(topics)
     cmd = Twist()
@@ -145,10 +145,9 @@ def _drive(rospy, topics, v, w, until, sim_limit):
     finally:
         pub.publish(Twist())
         wait_for(lambda: topics["truth"].get().twist.twist.linear.x == 0.0, 30.0, what="the robot stopped")
-        pub.unregister()
 
 
-def _stepped_drive(rospy, topics, v, w, until, max_seconds):
+def _stepped_drive(rospy, publisher, topics, v, w, until, max_seconds):
     """Drive the paused simulation in 50 ms steps (service ~step) until ``until()``; then stop it
     for 1 s. Exact in sim time however slow the machine: nothing moves between checks."""
     from geometry_msgs.msg import Twist
@@ -156,7 +155,7 @@ def _stepped_drive(rospy, topics, v, w, until, max_seconds):
 
     from florence_sim.srv import Step
 
-    pub = rospy.Publisher("/cmd_vel", Twist, queue_size=1)
+    pub = publisher("/cmd_vel", Twist)
     wait_for(lambda: pub.get_num_connections() > 0, 30.0, what="cmd_vel subscriber")
     rospy.wait_for_service("/florence_sim/step", 30.0)
     step = rospy.ServiceProxy("/florence_sim/step", Step)
@@ -180,7 +179,6 @@ def _stepped_drive(rospy, topics, v, w, until, max_seconds):
         advance(100)
     finally:
         rospy.ServiceProxy("/florence_sim/unpause", Empty)()
-        pub.unregister()
 
 
 @pytest.fixture(scope="class")
@@ -261,7 +259,7 @@ class TestSmallWorld:
         assert 0.5 * RTF < factor < 1.1 * RTF, f"achieved {factor:.2f}x, requested {RTF}x"
 
     @pytest.mark.ros
-    def test_straight_metre_and_quarter_turn_end_near_ground_truth(self, topics, rospy_node):
+    def test_straight_metre_and_quarter_turn_end_near_ground_truth(self, topics, rospy_node, publisher):
         _set_pose(rospy_node, 3.0, 2.5, 0.0)
         wait_for(lambda: topics["truth"].get().pose.pose.position.x == 3.0, 10.0, what="robot at the start")
         odom0 = topics["odom"].get().pose.pose
@@ -271,7 +269,7 @@ class TestSmallWorld:
             p = topics["odom"].get().pose.pose.position
             return math.hypot(p.x - odom0.position.x, p.y - odom0.position.y)
 
-        _stepped_drive(rospy_node, topics, 0.3, 0.0, lambda: odom_distance() >= 1.0, max_seconds=10.0)
+        _stepped_drive(rospy_node, publisher, topics, 0.3, 0.0, lambda: odom_distance() >= 1.0, max_seconds=10.0)
         truth = topics["truth"].get().pose.pose
         moved = math.hypot(truth.position.x - truth0.position.x, truth.position.y - truth0.position.y)
         # at most one 50 ms step past the metre, 0.045 m to stop, 1 % odometry scale error
@@ -280,17 +278,17 @@ class TestSmallWorld:
         assert abs(_yaw(truth.orientation)) < math.radians(2)
 
         yaw0 = _yaw(topics["odom"].get().pose.pose.orientation)
-        _stepped_drive(rospy_node, topics, 0.0, 0.6,
+        _stepped_drive(rospy_node, publisher, topics, 0.0, 0.6,
                        lambda: _wrap(_yaw(topics["odom"].get().pose.pose.orientation) - yaw0) >= math.pi / 2,
                        max_seconds=10.0)
         turned = _wrap(_yaw(topics["truth"].get().pose.pose.orientation) - _yaw(truth.orientation))
         assert turned == pytest.approx(math.pi / 2, abs=math.radians(6))
 
     @pytest.mark.ros
-    def test_collision_stops_robot_sets_bumper_and_counts(self, topics, rospy_node):
+    def test_collision_stops_robot_sets_bumper_and_counts(self, topics, rospy_node, publisher):
         _set_pose(rospy_node, 4.5, 3.0, 0.0)  # east wall face at x = 5.95
         before = topics["collisions"].get().data
-        _drive(rospy_node, topics, 0.4, 0.0, lambda: topics["state"].get().bumps_wheeldrops != 0, sim_limit=10.0)
+        _drive(publisher, topics, 0.4, 0.0, lambda: topics["state"].get().bumps_wheeldrops != 0, sim_limit=10.0)
         state = topics["state"].get()
         assert state.bumps_wheeldrops & 0b11 == 0b11, "head-on: both bumpers"
         x = topics["truth"].get().pose.pose.position.x
@@ -298,11 +296,11 @@ class TestSmallWorld:
         wait_for(lambda: topics["collisions"].get().data == before + 1, 20.0, what="collision counted")
 
     @pytest.mark.ros
-    def test_nan_cmd_vel_is_ignored_with_a_warning(self, small_world, topics, rospy_node):
+    def test_nan_cmd_vel_is_ignored_with_a_warning(self, small_world, topics, rospy_node, publisher):
         from geometry_msgs.msg import Twist
 
         _set_pose(rospy_node, 3.0, 3.0, 0.0)
-        pub = rospy_node.Publisher("/cmd_vel", Twist, queue_size=1)
+        pub = publisher("/cmd_vel", Twist)
         wait_for(lambda: pub.get_num_connections() > 0, 30.0)
         bad = Twist()
         bad.linear.x = float("nan")
@@ -310,7 +308,6 @@ class TestSmallWorld:
         for _ in range(5):
             pub.publish(bad)
             time.sleep(0.05)
-        pub.unregister()
         wait_for(lambda: "ignoring cmd_vel with NaN/inf" in small_world.output(), 30.0, what="the warning")
         wait_for(lambda: _sim_now(topics) > start + 1.0, 30.0)
         assert topics["truth"].get().pose.pose.position.x == pytest.approx(3.0)
@@ -337,11 +334,11 @@ class TestApartment:
         assert cloud.header.frame_id == "camera_rgb_optical_frame" and (cloud.width, cloud.height) == (160, 120)
 
     @pytest.mark.ros
-    def test_tilt_moves_the_camera_frame_in_tf(self, apartment_topics, rospy_node, tf_buffer):
+    def test_tilt_moves_the_camera_frame_in_tf(self, apartment_topics, rospy_node, tf_buffer, publisher):
         import rospy
         from std_msgs.msg import Float64
 
-        pub = rospy.Publisher("/tilt_angle", Float64, queue_size=1, latch=True)
+        pub = publisher("/tilt_angle", Float64, latch=True)
         pub.publish(Float64(20.0))
         wait_for(lambda: abs(apartment_topics["tilt"].get().data - 20.0) < 0.1, 60.0, what="cur_tilt_angle at 20 deg")
         assert apartment_topics["tilt_status"].get().data in (0, 4)
@@ -356,7 +353,6 @@ class TestApartment:
         pub.publish(Float64(0.0))
         wait_for(lambda: abs(apartment_topics["tilt"].get().data) < 0.1, 60.0, what="tilt back at 0")
         wait_for(lambda: apartment_topics["tilt_status"].get().data == 0, 30.0, what="tilt motor stopped")
-        pub.unregister()
 
     @pytest.mark.ros
     def test_people_walk_their_paths(self, apartment_topics):

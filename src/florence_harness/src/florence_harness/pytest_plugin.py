@@ -6,6 +6,11 @@ Fixtures:
     rospy_node (session): this test process as a rospy node (initialised once;
         rospy cannot re-initialise in one process).
     tf_buffer (session): a tf2_ros.Buffer fed by a TransformListener.
+    publisher (session): ``publisher(topic, msg_class, latch=False)`` returns this
+        process's one rospy.Publisher for ``topic``. Tests must not unregister a
+        publisher and create another on the same topic: a long-lived subscriber that
+        still holds the old connection (same caller URI) skips the new one for good
+        (rospy's RegManager checks ``has_connection``), and the test waits forever.
     launch (function): ``launch(package, file, *args)`` starts a roslaunch against
         the private master; every launch is stopped when the test ends, and its
         output is printed if the test failed.
@@ -63,6 +68,22 @@ def tf_buffer(rospy_node):
     listener = tf2_ros.TransformListener(buffer)
     yield buffer
     del listener
+
+
+@pytest.fixture(scope="session")
+def publisher(rospy_node):
+    cache = {}
+
+    def get(topic, msg_class, latch=False, queue_size=10):
+        name = rospy_node.resolve_name(topic)
+        pub = cache.get(name)
+        if pub is None:
+            pub = cache[name] = rospy_node.Publisher(name, msg_class, queue_size=queue_size, latch=latch)
+        elif pub.data_class is not msg_class or pub.impl.is_latch != latch:
+            raise ValueError(f"{name} is already published as {pub.data_class._type} (latch={pub.impl.is_latch})")
+        return pub
+
+    return get
 
 
 @pytest.fixture
