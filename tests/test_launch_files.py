@@ -23,7 +23,6 @@ PENDING = {
     ("velocity_filter", "velocity_filter_node"): "issue 4",
     ("laser_combinator", "laser_combinator_node"): "issue 4",
     ("pointcloud_to_laserscan", "pointcloud_to_laserscan_node"): "issue 4",
-    ("amcl", "amcl"): "issue 5",
     ("move_base", "move_base"): "issue 6",
     ("openni_camera", "openni_camera_node"): "not scheduled yet (real Kinect driver)",
     ("kinect_aux", "kinect_aux_node"): "not scheduled yet (real Kinect tilt driver)",
