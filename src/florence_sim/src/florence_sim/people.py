@@ -1,0 +1,187 @@
+"""Simulated people: legs at laser height, torso and head up to about 1.7 m (no ROS).
+
+A person stands, sits, or walks along waypoints at a set speed (modes ``loop``,
+``back_and_forth``, ``once``), pausing at each waypoint. The body is made of
+cylinders, so the laser sees two legs and the Kinect the shirt colour. Paths
+are checked against the world: one through a wall or furniture is refused.
+"""
+
+import itertools
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from florence_sim.geometry import Cylinder
+from florence_sim.world import WorldError, _load_yaml, _Reader
+
+MODES = ("loop", "back_and_forth", "once")
+POSTURES = ("standing", "sitting")
+RADIUS = 0.20  # [m] footprint radius used for path checks and collisions
+HEIGHT = 1.72  # [m] standing height
+SKIN = (0.87, 0.72, 0.60)
+TROUSERS = (0.20, 0.20, 0.25)
+STRIDE = 1.2  # [m] distance for one full leg cycle
+
+
+@dataclass
+class Person:
+    """One person. Pose (x, y, yaw) [m, m, rad]; ``path`` [(x, y), ...] [m]; speed [m/s]."""
+
+    id: str
+    x: float = 0.0
+    y: float = 0.0
+    yaw: float = 0.0
+    shirt: tuple = (0.8, 0.1, 0.1)
+    posture: str = "standing"
+    path: list = field(default_factory=list)
+    speed: float = 0.5
+    mode: str = "loop"
+    pause: float = 0.0  # [s] standing still at each waypoint
+    # walking state
+    target: int = 1
+    direction: int = 1
+    wait: float = 0.0
+    phase: float = 0.0  # [rad] leg swing phase
+    vx: float = 0.0
+    vy: float = 0.0
+    finished: bool = False
+
+    def __post_init__(self):
+        if self.path:
+            self.x, self.y = self.path[0]
+            if len(self.path) > 1:
+                (x0, y0), (x1, y1) = self.path[0], self.path[1]
+                self.yaw = math.atan2(y1 - y0, x1 - x0)
+
+    @property
+    def walking(self):
+        return len(self.path) > 1 and not self.finished
+
+    def step(self, dt):
+        """Advance the walk by ``dt`` [s]."""
+        self.vx = self.vy = 0.0
+        if not self.walking:
+            return
+        if self.wait > 0:
+            self.wait = max(0.0, self.wait - dt)
+            return
+        remaining = self.speed * dt
+        while remaining > 1e-12 and not self.finished:
+            tx, ty = self.path[self.target]
+            dx, dy = tx - self.x, ty - self.y
+            dist = math.hypot(dx, dy)
+            if dist > 1e-9:
+                self.yaw = math.atan2(dy, dx)
+            move = min(dist, remaining)
+            if dist > 1e-9:
+                self.x += dx / dist * move
+                self.y += dy / dist * move
+            remaining -= move
+            self.phase += 2 * math.pi * move / STRIDE
+            if move >= dist - 1e-12:
+                self._next_waypoint()
+                if self.pause > 0:
+                    self.wait = self.pause
+                    break
+        self.vx = self.speed * math.cos(self.yaw) if not self.finished else 0.0
+        self.vy = self.speed * math.sin(self.yaw) if not self.finished else 0.0
+
+    def _next_waypoint(self):
+        n = len(self.path)
+        nxt = self.target + self.direction
+        if 0 <= nxt < n:
+            self.target = nxt
+        elif self.mode == "loop":
+            self.target = 0 if nxt >= n else n - 1
+        elif self.mode == "back_and_forth":
+            self.direction = -self.direction
+            self.target += self.direction
+        else:
+            self.finished = True
+
+    def primitives(self):
+        """Cylinders of the body at the current pose."""
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        if self.posture == "sitting":
+            # thighs forward, torso and head lower
+            parts = [(0.15, 0.0, 0.15, 0.0, 0.50, TROUSERS), (0.0, 0.0, 0.17, 0.50, 1.05, self.shirt),
+                     (0.0, 0.0, 0.10, 1.10, 1.32, SKIN)]
+        else:
+            swing = 0.12 * math.sin(self.phase) if self.walking else 0.0
+            parts = [(swing, 0.10, 0.065, 0.0, 0.85, TROUSERS), (-swing, -0.10, 0.065, 0.0, 0.85, TROUSERS),
+                     (0.0, 0.0, 0.18, 0.85, 1.48, self.shirt), (0.0, 0.0, 0.10, 1.50, HEIGHT, SKIN)]
+        names = ("leg_l", "leg_r", "torso", "head") if len(parts) == 4 else ("legs", "torso", "head")
+        return [Cylinder(f"person/{self.id}/{name}", self.x + c * ax - s * ay, self.y + s * ax + c * ay, r, z0, z1, col)
+                for name, (ax, ay, r, z0, z1, col) in zip(names, parts, strict=True)]
+
+
+def check_path(person, scene, source="people"):
+    """Raise :class:`WorldError` if the person's path or pose hits an obstacle of ``scene``."""
+    points = [tuple(p) for p in person.path] or [(person.x, person.y)]
+    segments = list(itertools.pairwise(points))
+    if person.mode == "loop" and len(points) > 2:
+        segments.append((points[-1], points[0]))
+    if not segments:
+        segments = [(points[0], points[0])]
+    for i, ((x0, y0), (x1, y1)) in enumerate(segments):
+        n = max(2, int(math.hypot(x1 - x0, y1 - y0) / 0.05) + 1)
+        xs, ys = np.linspace(x0, x1, n), np.linspace(y0, y1, n)
+        dist, owner = scene.clearance(np.stack([xs, ys], axis=1), z_max=HEIGHT)
+        bad = np.nonzero(dist < RADIUS)[0]
+        if len(bad):
+            k = bad[0]
+            what = scene.names[owner[k]]
+            where = f"person {person.id}: path segment {i} ({x0:g}, {y0:g}) -> ({x1:g}, {y1:g})" if person.path \
+                else f"person {person.id}: pose ({x0:g}, {y0:g})"
+            raise WorldError(source, where, f"passes through {what!r} at ({xs[k]:.2f}, {ys[k]:.2f}) "
+                                            f"(a person needs {RADIUS} m of clearance)")
+
+
+def person_from_spec(spec, r, where):
+    """Build a :class:`Person` from a people-file entry (validated through reader ``r``)."""
+    r.mapping(spec, where)
+    pid = spec.get("id")
+    if not isinstance(pid, str) or not pid:
+        r.fail(f"{where}.id", "every person needs a non-empty string id")
+    kwargs = {"id": pid}
+    if "shirt" in spec:
+        kwargs["shirt"] = r.color(spec["shirt"], f"{where}.shirt")
+    posture = spec.get("posture", "standing")
+    if posture not in POSTURES:
+        r.fail(f"{where}.posture", f"must be one of {', '.join(POSTURES)}, got {posture!r}")
+    kwargs["posture"] = posture
+    if "path" in spec:
+        path = r.sequence(spec["path"], f"{where}.path")
+        if not path:
+            r.fail(f"{where}.path", "a path needs at least one waypoint")
+        kwargs["path"] = [tuple(r.vector(p, f"{where}.path[{i}]", 2)) for i, p in enumerate(path)]
+        if posture == "sitting" and len(path) > 1:
+            r.fail(f"{where}.posture", "a sitting person cannot walk a path")
+    elif "pose" in spec:
+        kwargs["x"], kwargs["y"], kwargs["yaw"] = r.vector(spec["pose"], f"{where}.pose", 3)
+    else:
+        r.fail(where, "a person needs 'pose: [x, y, yaw]' or 'path: [[x, y], ...]'")
+    kwargs["speed"] = r.number(spec.get("speed", 0.5), f"{where}.speed", positive=True)
+    kwargs["pause"] = r.number(spec.get("pause", 0.0), f"{where}.pause", minimum=0.0)
+    mode = spec.get("mode", "loop")
+    if mode not in MODES:
+        r.fail(f"{where}.mode", f"must be one of {', '.join(MODES)}, got {mode!r}")
+    kwargs["mode"] = mode
+    return Person(**kwargs)
+
+
+def load_people(path, scene):
+    """Read a people file; every path is checked against ``scene`` (walls and furniture)."""
+    data = _load_yaml(path)
+    r = _Reader(path)
+    people = []
+    ids = set()
+    for i, spec in enumerate(r.sequence(data.get("people", []), "people")):
+        person = person_from_spec(spec, r, f"people[{i}]")
+        if person.id in ids:
+            r.fail(f"people[{i}].id", f"duplicate id {person.id!r}")
+        ids.add(person.id)
+        check_path(person, scene, source=path)
+        people.append(person)
+    return people

@@ -1,0 +1,147 @@
+"""Sensor models: the Hokuyo URG-04LX and the Kinect depth/RGB camera (no ROS).
+
+Mount poses are 4x4 matrices in ``base_footprint`` taken from the robot
+description; a robot pose (x, y, yaw) places them in the world. Each model
+returns what the real driver would put in its message, in the sensor's own
+frame: the laser does not know it is upside down, tf does.
+"""
+
+import itertools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+# Hokuyo URG-04LX (datasheet; hokuyo_node): 1024 steps a turn, steps 44..725 usable with
+# the front at step 384, i.e. +-340 steps = +-2.0862 rad; 20 mm .. 5.6 m; 100 ms a scan.
+URG_STEPS_PER_TURN = 1024
+URG_MAX_STEP = 340  # [steps] from the front, both sides
+URG_RANGE_MIN = 0.02  # [m]
+URG_RANGE_MAX = 5.6  # [m]
+URG_SCAN_TIME = 0.1  # [s]
+URG_NO_RETURN = 0.0  # [m] hokuyo_node publishes the device's error code (0 for no echo) / 1000
+
+
+def world_pose(x, y, yaw):
+    """4x4 pose of base_footprint in the world."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    m = np.eye(4)
+    m[:2, :2] = [[c, -s], [s, c]]
+    m[0, 3], m[1, 3] = x, y
+    return m
+
+
+@dataclass
+class LaserConfig:
+    min_ang: float = -math.pi / 2  # [rad] requested first angle (hokuyo_node ~min_ang)
+    max_ang: float = math.pi / 2  # [rad] requested last angle (hokuyo_node ~max_ang)
+    noise: float = 0.01  # [m] range noise std below 1 m; 1 % of the range beyond (URG: +-10 mm / 1 %)
+    frame_id: str = "base_laser_link"
+
+
+class UrgLaser:
+    """Scans in the laser's own frame, counter-clockwise about its own z axis, as the URG does."""
+
+    def __init__(self, mount, config=None, rng=None):
+        self.cfg = config or LaserConfig()
+        self.mount = np.asarray(mount, dtype=float)
+        if abs(abs(self.mount[2, 2]) - 1.0) > 1e-6:
+            raise ValueError("the laser's z axis must be vertical (up or down) for a 2D scan")
+        self.rng = rng or np.random.default_rng(1)
+        self.increment = 2 * math.pi / URG_STEPS_PER_TURN  # [rad]
+        lo, hi = self.cfg.min_ang, self.cfg.max_ang
+        if not (math.isfinite(lo) and math.isfinite(hi)) or lo >= hi:
+            raise ValueError(f"min_ang {lo} must be below max_ang {hi}")
+        # hokuyo_node turns the requested angles into device steps and clips them to the device
+        first = max(-URG_MAX_STEP, min(URG_MAX_STEP, round(lo / self.increment)))
+        last = max(-URG_MAX_STEP, min(URG_MAX_STEP, round(hi / self.increment)))
+        self.steps = np.arange(first, last + 1)
+        self.angles = self.steps * self.increment  # [rad] in the laser frame
+        self.angle_min = float(self.angles[0])
+        self.angle_max = float(self.angles[-1])
+        local = np.stack([np.cos(self.angles), np.sin(self.angles), np.zeros_like(self.angles)], axis=1)
+        self._dirs_base = local @ self.mount[:3, :3].T  # beam directions in base_footprint
+        self.time_increment = URG_SCAN_TIME / URG_STEPS_PER_TURN  # [s]
+        self.scan_time = URG_SCAN_TIME
+        self.range_min, self.range_max = URG_RANGE_MIN, URG_RANGE_MAX
+
+    def scan(self, scene, x, y, yaw):
+        """Ranges [m] (float32) of one scan from robot pose (x, y, yaw); no echo -> 0.0."""
+        pose = world_pose(x, y, yaw) @ self.mount
+        dirs = self._dirs_base[:, :2] @ world_pose(0, 0, yaw)[:2, :2].T
+        ranges, _ = scene.cast_2d(pose[:2, 3], dirs, pose[2, 3], self.range_max)
+        hit = np.isfinite(ranges)
+        if self.cfg.noise:
+            sigma = np.maximum(self.cfg.noise, self.cfg.noise * ranges[hit])
+            ranges[hit] += self.rng.normal(0.0, 1.0, hit.sum()) * sigma
+        valid = hit & (ranges >= self.range_min) & (ranges <= self.range_max)
+        return np.where(valid, ranges, URG_NO_RETURN).astype(np.float32)
+
+
+@dataclass
+class CameraConfig:
+    width: int = 160  # [px]
+    height: int = 120  # [px]
+    hfov: float = math.radians(58.0)  # [rad] horizontal field of view (square pixels)
+    min_range: float = 0.55  # [m] nothing nearer is seen (NaN)
+    max_range: float = 4.0  # [m]
+    depth_noise: float = 0.0012  # [1/m] depth noise std = depth_noise * depth^2 (structured light)
+    floor_color: tuple = (0.62, 0.52, 0.40)
+    ceiling_color: tuple = (0.95, 0.95, 0.95)
+
+    def validate(self):
+        if not (8 <= self.width <= 640 and 6 <= self.height <= 480):
+            raise ValueError(f"camera size {self.width}x{self.height} must be within 8x6 .. 640x480")
+        if not (0 < self.hfov < math.pi):
+            raise ValueError("hfov must be within 0..pi")
+        if not (0 <= self.min_range < self.max_range):
+            raise ValueError("need 0 <= min_range < max_range")
+        if self.depth_noise < 0:
+            raise ValueError("depth_noise must be >= 0")
+        return self
+
+
+class DepthCamera:
+    """A pinhole camera in an optical frame (z forward, x right, y down)."""
+
+    STRIPS = 8  # column strips, each with its own primitive culling
+
+    def __init__(self, config=None, rng=None):
+        self.cfg = (config or CameraConfig()).validate()
+        self.rng = rng or np.random.default_rng(2)
+        w, h = self.cfg.width, self.cfg.height
+        self.fx = self.fy = (w / 2) / math.tan(self.cfg.hfov / 2)  # [px]
+        self.cx, self.cy = (w - 1) / 2, (h - 1) / 2
+        u, v = np.meshgrid(np.arange(w), np.arange(h))
+        self.rays = np.stack([(u - self.cx) / self.fx, (v - self.cy) / self.fy, np.ones_like(u, dtype=float)],
+                             axis=-1).reshape(-1, 3)  # optical frame, z = 1
+        cols = np.tile(np.arange(w), h)
+        edges = np.linspace(0, w, min(self.STRIPS, w) + 1).astype(int)
+        self.groups = [np.nonzero((cols >= a) & (cols < b))[0] for a, b in itertools.pairwise(edges)]
+
+    @property
+    def K(self):
+        return [self.fx, 0.0, self.cx, 0.0, self.fy, self.cy, 0.0, 0.0, 1.0]
+
+    def render(self, scene, optical_pose, noise=True):
+        """Depth [m] (H, W) float32 with NaN for no return, and RGB (H, W, 3) uint8,
+        for an optical frame at ``optical_pose`` (4x4 in the world)."""
+        cfg = self.cfg
+        dirs = self.rays @ optical_pose[:3, :3].T
+        depth, owner = scene.cast_3d(optical_pose[:3, 3], dirs, cfg.max_range, self.groups)
+        table = np.concatenate([scene.colors, [cfg.ceiling_color, cfg.floor_color, (0, 0, 0)]]).astype(np.float32)
+        color = table[np.where(owner < 0, len(scene.colors) + 3 + owner, owner)]
+        shade = np.clip(1.0 - 0.12 * np.nan_to_num(depth, posinf=cfg.max_range), 0.4, 1.0)
+        rgb = (color * shade[:, None] * 255).astype(np.uint8)
+        depth = depth.astype(np.float32)
+        if noise and cfg.depth_noise:
+            finite = np.isfinite(depth)
+            depth[finite] += (self.rng.standard_normal(finite.sum()) * cfg.depth_noise * depth[finite] ** 2).astype(
+                np.float32)
+        depth[(depth < cfg.min_range) | ~np.isfinite(depth)] = np.nan
+        h, w = cfg.height, cfg.width
+        return depth.reshape(h, w), rgb.reshape(h, w, 3)
+
+    def points(self, depth):
+        """Points (H, W, 3) [m] in the optical frame for a depth image (NaN stays NaN)."""
+        return self.rays.reshape(self.cfg.height, self.cfg.width, 3) * depth[..., None]

@@ -1,0 +1,320 @@
+"""The simulation core without ROS: base motion, collisions, laser and Kinect geometry, people."""
+
+import math
+
+import numpy as np
+import pytest
+from florence_sim.base import BUMP_LEFT, BUMP_RIGHT, BaseConfig, DiffDriveBase, clamp_to_wheels
+from florence_sim.geometry import Box, Cylinder, Scene
+from florence_sim.people import Person
+from florence_sim.robot_model import RobotModel
+from florence_sim.sensors import CameraConfig, DepthCamera, LaserConfig, UrgLaser, world_pose
+
+DT = 0.01
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return RobotModel.from_xacro()
+
+
+def room(size=4.0, thickness=0.1, height=2.4):
+    """A square room [0, size]^2 whose inner wall faces are at 0 and ``size``."""
+    t, s = thickness, size
+    return [Box("south", s / 2, -t / 2, 0, s + 2 * t, t, 0, height), Box("north", s / 2, s + t / 2, 0, s + 2 * t, t, 0,
+                                                                         height),
+            Box("west", -t / 2, s / 2, 0, t, s, 0, height), Box("east", s + t / 2, s / 2, 0, t, s, 0, height)]
+
+
+def make_base(**kw):
+    cfg = BaseConfig(radius=0.1696, height=0.94, wheel_separation=0.26, **kw)
+    return DiffDriveBase(cfg, 1.0, 1.0, 0.0)
+
+
+def drive(base, scene, v, w, until, limit=30.0):
+    t = 0.0
+    while not until(base) and t < limit:
+        base.command(v, w, t)
+        base.step(DT, t, scene)
+        t += DT
+    return t
+
+
+def test_straight_one_metre_by_odometry_ends_near_truth():
+    base = make_base()
+    scene = Scene(room(6.0))
+    drive(base, scene, 0.3, 0.0, lambda b: math.hypot(b.ox - 1.0, b.oy - 1.0) >= 1.0)
+    travelled = math.hypot(base.x - 1.0, base.y - 1.0)
+    assert travelled == pytest.approx(1.0, abs=0.03)  # 1 % scale error and noise by default
+    assert abs(base.yaw) < math.radians(2)
+
+
+def test_ninety_degree_turn_by_gyro_ends_near_truth():
+    base = make_base()
+    scene = Scene(room(6.0))
+    drive(base, scene, 0.0, 0.8, lambda b: b.oyaw >= math.pi / 2)
+    assert base.yaw == pytest.approx(math.pi / 2, abs=math.radians(3))
+    assert math.hypot(base.x - 1.0, base.y - 1.0) < 0.01
+
+
+def test_error_free_odometry_matches_truth():
+    base = make_base(odom_linear_scale_error=0.0, odom_linear_noise=0.0, gyro_scale_error=0.0, gyro_noise=0.0)
+    drive(base, Scene(room(6.0)), 0.3, 0.4, lambda b: False, limit=5.0)
+    assert (base.ox, base.oy, base.oyaw) == pytest.approx((base.x, base.y, base.yaw), abs=1e-9)
+
+
+def test_gyro_scale_error_shows_in_odometry_heading():
+    base = make_base(gyro_scale_error=0.1, gyro_noise=0.0)
+    drive(base, Scene(room(6.0)), 0.0, 0.5, lambda b: b.yaw >= 1.0)
+    assert base.oyaw == pytest.approx(1.1 * base.yaw, rel=0.01)
+
+
+@pytest.mark.parametrize(("yaw", "bits"), [(0.0, BUMP_LEFT | BUMP_RIGHT), (math.radians(45), BUMP_RIGHT),
+                                           (math.radians(-45), BUMP_LEFT)])
+def test_collision_stops_the_robot_and_sets_bumper_bits(yaw, bits):
+    """A wall across x = 2.0, hit head-on, on the robot's right (heading north-east) or left."""
+    scene = Scene([Box("wall", 2.05, 1.0, 0.0, 0.1, 6.0, 0.0, 2.4)])
+    base = make_base()
+    base.set_pose(1.0, 1.0, yaw)
+    drive(base, scene, 0.3, 0.0, lambda b: False, limit=8.0)
+    assert base.v == 0.0
+    assert 2.0 - base.x >= base.cfg.radius - 1e-6, "the robot never enters the wall"
+    assert 2.0 - base.x < base.cfg.radius + 0.02, "it stopped at the wall"
+    assert base.collisions == 1
+    assert base.bumps == bits
+
+
+def test_robot_backs_away_from_a_wall_after_contact():
+    scene = Scene([Box("wall", 2.05, 1.0, 0.0, 0.1, 6.0, 0.0, 2.4)])
+    base = make_base()
+    drive(base, scene, 0.3, 0.0, lambda b: b.bumps != 0)
+    drive(base, scene, -0.2, 0.0, lambda b: False, limit=1.0)
+    assert base.bumps == 0 and 2.0 - base.x > base.cfg.radius + 0.05
+
+
+def test_table_top_blocks_the_robot_but_not_the_laser_plane():
+    """The robot is 0.94 m tall: it cannot drive under a 0.75 m table top."""
+    scene = Scene([Box("top", 2.6, 1.0, 0.0, 1.0, 1.0, 0.71, 0.75)])
+    base = make_base()
+    drive(base, scene, 0.3, 0.0, lambda b: False, limit=8.0)
+    assert base.collisions == 1 and base.x < 2.1 - base.cfg.radius + 0.02
+
+
+def test_nan_command_is_ignored_and_keeps_the_previous_one():
+    base = make_base()
+    assert base.command(0.2, 0.0, 0.0)
+    assert not base.command(float("nan"), 0.0, 0.1)
+    assert not base.command(0.1, float("inf"), 0.1)
+    assert base.cmd_v == 0.2 and base.cmd_time == 0.0
+
+
+def test_stale_command_stream_stops_the_robot():
+    base = make_base()
+    scene = Scene(room(6.0))
+    base.command(0.3, 0.0, 0.0)
+    t = 0.0
+    while t < 0.5:
+        base.step(DT, t, scene)
+        t += DT
+    assert base.v == pytest.approx(0.3)
+    while t < 1.2:
+        base.step(DT, t, scene)
+        t += DT
+    assert base.v == 0.0
+
+
+@pytest.mark.parametrize(("v", "w", "expect"), [(1.0, 0.0, (0.5, 0.0)), (0.0, 10.0, (0.0, 1.0 / 0.26)),
+                                                (0.5, 1.0, (0.435, 0.5)), (0.2, 0.5, (0.2, 0.5))])
+def test_wheel_speed_limit_of_the_create(v, w, expect):
+    assert clamp_to_wheels(v, w, 0.26, 0.5) == pytest.approx(expect, abs=1e-9)
+
+
+def test_acceleration_is_limited():
+    base = make_base(max_linear_acc=1.0)
+    base.command(0.5, 0.0, 0.0)
+    base.step(DT, 0.0, Scene(room(6.0)))
+    assert base.v == pytest.approx(0.01)
+
+
+# ---------------------------------------------------------------------------------------- laser
+def _box_room_distance(x, y, heading, size):
+    """Analytic distance from (x, y) along heading to the inside of the square room [0, size]^2."""
+    c, s = math.cos(heading), math.sin(heading)
+    ts = []
+    if c > 1e-12:
+        ts.append((size - x) / c)
+    if c < -1e-12:
+        ts.append(-x / c)
+    if s > 1e-12:
+        ts.append((size - y) / s)
+    if s < -1e-12:
+        ts.append(-y / s)
+    return min(ts)
+
+
+@pytest.mark.parametrize(("x", "y", "yaw"), [(2.0, 2.0, 0.0), (1.0, 2.5, 0.7), (3.1, 1.2, -2.5)])
+def test_laser_ranges_match_analytic_distances(robot, x, y, yaw):
+    mount = robot.pose("base_laser_link")
+    laser = UrgLaser(mount, LaserConfig(min_ang=-2.1, max_ang=2.1, noise=0.0))
+    ranges = laser.scan(Scene(room(4.0)), x, y, yaw)
+    lx, ly = (world_pose(x, y, yaw) @ mount)[:2, 3]
+    # inverted mounting: the laser's counter-clockwise angle alpha points at robot bearing -alpha
+    expected = np.array([_box_room_distance(lx, ly, yaw - a, 4.0) for a in laser.angles])
+    expected[expected > 5.6] = 0.0
+    np.testing.assert_allclose(ranges, expected, atol=1e-4)
+
+
+def test_urg_geometry_and_no_return(robot):
+    laser = UrgLaser(robot.pose("base_laser_link"), LaserConfig(min_ang=-3.0, max_ang=3.0))
+    assert laser.increment == pytest.approx(2 * math.pi / 1024)
+    assert laser.angle_min == pytest.approx(-2.0862, abs=1e-4) and laser.angle_max == pytest.approx(2.0862, abs=1e-4)
+    assert len(laser.angles) == 681
+    default = UrgLaser(robot.pose("base_laser_link"), LaserConfig())
+    assert default.angle_min == pytest.approx(-math.pi / 2) and len(default.angles) == 513
+    ranges = laser.scan(Scene(room(20.0)), 10.0, 10.0, 0.0)  # walls 10 m away: beyond 5.6 m
+    assert np.all(ranges == 0.0)
+
+
+def test_inverted_laser_sees_a_left_wall_at_negative_angles(robot):
+    """Upside down, the URG's own left (+angles) is the robot's right."""
+    scene = Scene([Box("left_wall", 2.0, 2.0, 0.0, 12.0, 0.1, 0.0, 2.4)])  # 1.95 m left of a robot at (2, 0)
+    laser = UrgLaser(robot.pose("base_laser_link"), LaserConfig(noise=0.0))
+    ranges = laser.scan(scene, 2.0, 0.0, 0.0)
+    left = ranges[laser.angles < -0.6]
+    right = ranges[laser.angles > 0.2]
+    assert np.all(left > 0) and np.all(right == 0)
+    assert ranges[0] == pytest.approx(1.95, abs=1e-4)  # angle_min = -pi/2: straight to the robot's left
+
+
+def test_laser_range_noise_is_centred(robot):
+    laser = UrgLaser(robot.pose("base_laser_link"), LaserConfig(noise=0.01))
+    exact = UrgLaser(robot.pose("base_laser_link"), LaserConfig(noise=0.0))
+    diffs = np.concatenate([laser.scan(Scene(room(4.0)), 2.0, 2.0, 0.0) - exact.scan(Scene(room(4.0)), 2.0, 2.0, 0.0)
+                            for _ in range(20)])
+    assert abs(diffs.mean()) < 0.002 and 0.005 < diffs.std() < 0.03
+
+
+# ---------------------------------------------------------------------------------------- Kinect
+def _camera_pose(robot, x, y, yaw, tilt=0.0):
+    return world_pose(x, y, yaw) @ robot.pose("camera_depth_optical_frame", {"camera_tilt_joint": tilt})
+
+
+@pytest.mark.parametrize("tilt", [0.0, 0.3, -0.4])
+def test_depth_matches_analytic_planes(robot, tilt):
+    """A wall ahead and the floor: depth (optical z) equals the analytic plane intersection."""
+    scene = Scene([Box("wall", 3.05, 0.0, 0.0, 0.1, 20.0, 0.0, 9.0)])  # face at x = 3.0, higher than seen
+    cam = DepthCamera(CameraConfig(width=64, height=48, depth_noise=0.0, max_range=10.0))
+    pose = _camera_pose(robot, 0.0, 0.0, 0.0, tilt)
+    depth, _ = cam.render(scene, pose)
+    rays = cam.rays @ pose[:3, :3].T
+    o = pose[:3, 3]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t_wall = np.where(rays[:, 0] > 0, (3.0 - o[0]) / rays[:, 0], np.inf)
+        t_floor = np.where(rays[:, 2] < 0, -o[2] / rays[:, 2], np.inf)
+    expected = np.minimum(t_wall, t_floor)
+    expected[(expected < 0.55) | (expected > 10.0)] = np.nan
+    np.testing.assert_allclose(depth.ravel(), expected, atol=1e-4, equal_nan=True)
+    assert np.isfinite(depth).mean() > 0.9
+
+
+def test_depth_range_limits_give_nan(robot):
+    cam = DepthCamera(CameraConfig(width=32, height=24, depth_noise=0.0))
+    near = Scene([Box("wall", 0.45, 0.0, 0.0, 0.1, 4.0, 0.0, 2.4)])  # 0.4 m ahead of the camera
+    depth, _ = cam.render(near, _camera_pose(robot, 0.0, 0.0, 0.0))
+    assert np.isnan(depth[: 12]).all()  # upper half sees only the too-near wall
+    depth, _ = cam.render(Scene([]), _camera_pose(robot, 0.0, 0.0, 0.0, tilt=0.5))
+    assert np.isnan(depth[0]).all()  # looking up at nothing: no return
+
+
+def test_table_is_seen_by_the_kinect_and_not_by_the_laser(robot):
+    """Table 1.2 m ahead between the legs: the laser passes under it, the Kinect sees the top."""
+    table = [Box("table/top", 2.0, 0.0, 0.0, 0.8, 1.2, 0.71, 0.75), Box("wall", 5.05, 0.0, 0.0, 0.1, 10.0, 0.0, 2.4)]
+    legs = [Cylinder(f"table/leg{i}", 2.0 + dx, dy, 0.025, 0.0, 0.71) for i, (dx, dy) in
+            enumerate([(0.35, 0.55), (-0.35, 0.55), (0.35, -0.55), (-0.35, -0.55)])]
+    scene = Scene(table, legs)
+    laser = UrgLaser(robot.pose("base_laser_link"), LaserConfig(noise=0.0))
+    ranges = laser.scan(scene, 0.0, 0.0, 0.0)
+    front = ranges[np.abs(laser.angles) < 0.1]
+    assert np.all(front > 4.5), "the laser passes under the table top to the far wall"
+    assert np.any(np.abs(ranges - math.hypot(1.65, 0.55)) < 0.1), "it sees a leg"
+
+    cam = DepthCamera(CameraConfig(depth_noise=0.0))
+    pose = world_pose(0.0, 0.0, 0.0) @ robot.pose("camera_depth_optical_frame")
+    depth, _ = cam.render(scene, pose)
+    upper = depth[: cam.cfg.height // 2, cam.cfg.width // 2 - 10: cam.cfg.width // 2 + 10]
+    cam_x = pose[0, 3]
+    on_table = np.abs(upper - (1.6 - cam_x)) < 0.05  # front face of the top at x = 1.6
+    assert on_table.sum() > 10, "the Kinect sees the table's top edge"
+
+
+def test_camera_intrinsics_and_groups_cover_every_pixel():
+    cam = DepthCamera(CameraConfig(width=640, height=480))
+    assert math.degrees(2 * math.atan(320 / cam.fx)) == pytest.approx(58.0)
+    assert 44 < math.degrees(2 * math.atan(240 / cam.fy)) < 46
+    assert sorted(np.concatenate(cam.groups).tolist()) == list(range(640 * 480))
+
+
+def test_grouped_and_ungrouped_casting_agree(robot):
+    rng = np.random.default_rng(3)
+    boxes = [Box(f"b{i}", *rng.uniform(0, 6, 2), rng.uniform(0, 3), *rng.uniform(0.1, 1.5, 2),
+                 0.0 if i % 2 else 0.6, rng.uniform(0.3, 2.4)) for i in range(25)]
+    cyls = [Cylinder(f"c{i}", *rng.uniform(0, 6, 2), 0.1, 0.0, 1.7) for i in range(6)]
+    scene = Scene(boxes, cyls, ceiling=2.4)
+    cam = DepthCamera(CameraConfig(width=80, height=60))
+    pose = world_pose(3.0, 3.0, 0.4) @ robot.pose("camera_depth_optical_frame", {"camera_tilt_joint": 0.2})
+    dirs = cam.rays @ pose[:3, :3].T
+    t1, o1 = scene.cast_3d(pose[:3, 3], dirs, 4.0)
+    t2, o2 = scene.cast_3d(pose[:3, 3], dirs, 4.0, cam.groups)
+    np.testing.assert_array_equal(t1, t2)
+    np.testing.assert_array_equal(o1, o2)
+
+
+# ---------------------------------------------------------------------------------------- people
+def _walk(person, seconds):
+    for _ in range(round(seconds / DT)):
+        person.step(DT)
+
+
+def test_person_walks_the_path_at_its_speed():
+    p = Person("a", path=[(0.0, 0.0), (2.0, 0.0), (2.0, 1.0)], speed=0.5, mode="once")
+    _walk(p, 2.0)
+    assert (p.x, p.y) == pytest.approx((1.0, 0.0), abs=1e-6)
+    assert p.yaw == pytest.approx(0.0) and p.vx == pytest.approx(0.5)
+    _walk(p, 3.0)
+    assert (p.x, p.y) == pytest.approx((2.0, 0.5), abs=1e-6)
+    assert p.yaw == pytest.approx(math.pi / 2)
+    _walk(p, 10.0)
+    assert (p.x, p.y) == pytest.approx((2.0, 1.0)) and not p.walking
+
+
+@pytest.mark.parametrize(("mode", "after", "where"), [("loop", 9.0, (0.5, 1.0)), ("back_and_forth", 9.0, (1.5, 0.0))])
+def test_person_path_modes(mode, after, where):
+    # 4.5 m at 0.5 m/s along a path of 2 + 1 m (a loop: 2 + 1 + 2 + 1 m)
+    p = Person("a", path=[(0.0, 0.0), (2.0, 0.0), (2.0, 1.0)], speed=0.5, mode=mode)
+    if mode == "loop":
+        p.path = [(0.0, 0.0), (2.0, 0.0), (2.0, 1.0), (0.0, 1.0)]
+    _walk(p, after)
+    assert (p.x, p.y) == pytest.approx(where, abs=1e-6)
+
+
+def test_person_pauses_at_waypoints():
+    p = Person("a", path=[(0.0, 0.0), (1.0, 0.0), (1.0, 1.0)], speed=1.0, mode="once", pause=1.0)
+    _walk(p, 1.5)
+    assert (p.x, p.y) == pytest.approx((1.0, 0.0), abs=1e-6) and p.vx == 0.0
+    _walk(p, 1.0)
+    assert (p.x, p.y) == pytest.approx((1.0, 0.5), abs=1e-6)
+
+
+def test_people_are_seen_by_laser_legs_and_camera_shirt(robot):
+    p = Person("a", x=2.0, y=0.0, yaw=math.pi, shirt=(0.0, 1.0, 0.0))
+    static = Scene([Box("wall", 5.05, 0.0, 0.0, 0.1, 10.0, 0.0, 2.4)])
+    scene = static.with_cylinders(p.primitives())
+    laser = UrgLaser(robot.pose("base_laser_link"), LaserConfig(noise=0.0))
+    ranges = laser.scan(scene, 0.0, 0.0, 0.0)
+    legs = ranges[(ranges > 0) & (ranges < 2.5)]
+    assert len(legs) > 3 and np.all(np.abs(legs - 1.9) < 0.1)
+    cam = DepthCamera(CameraConfig(depth_noise=0.0))
+    depth, rgb = cam.render(scene, world_pose(0, 0, 0) @ robot.pose("camera_rgb_optical_frame"))
+    green = (rgb[..., 1] > 100) & (rgb[..., 0] < 50) & (rgb[..., 2] < 50)
+    assert green.sum() > 50
+    assert np.nanmedian(depth[green]) == pytest.approx(2.0 - 0.18 + 0.087, abs=0.1)

@@ -1,0 +1,170 @@
+"""World files, the shipped apartment and its generated map (no ROS processes)."""
+
+import math
+import pathlib
+
+import numpy as np
+import pytest
+import yaml
+from florence_sim.people import Person, check_path, load_people
+from florence_sim.world import ROOMS, WorldError, load_world
+
+from florence_sim import mapgen
+
+MAPS = pathlib.Path(__file__).resolve().parents[3] / "maps"
+APARTMENT = MAPS / "apartment" / "apartment.world.yaml"
+TYPES = MAPS / "florence_types.yaml"
+# base_laser_link height of the Florence TurtleBot; the map test below reads it from the description
+LASER_HEIGHT = 0.1648
+
+
+@pytest.fixture(scope="module")
+def apartment():
+    return load_world(APARTMENT)
+
+
+def test_apartment_has_the_five_rooms_with_hotspots_inside(apartment):
+    assert set(apartment.rooms) == set(ROOMS)
+    for room in apartment.rooms.values():
+        x, y, _ = room.hotspot
+        assert apartment.room_at(x, y) == room.name
+        clearance, _ = apartment.scene.clearance([[x, y]], z_max=1.0)
+        assert clearance[0] > 0.35, f"hotspot of {room.name} too close to an obstacle"
+    (x0, y0), (x1, y1) = apartment.bounds
+    assert 7.5 <= x1 - x0 - 1.0 <= 10.5 and 9.0 <= y1 - y0 - 1.0 <= 11.0  # about 8 x 10 m
+
+
+def test_shipped_map_equals_a_fresh_generation(apartment):
+    """The repo ships generated files; regenerate with `rosrun florence_sim generate_map`."""
+    height = mapgen.laser_height_from_description()
+    assert height == pytest.approx(LASER_HEIGHT, abs=1e-3)
+    for name, data in mapgen.generate(apartment, height, "apartment").items():
+        shipped = (MAPS / "apartment" / name).read_bytes()
+        assert shipped == data, f"maps/apartment/{name} is stale: run generate_map"
+
+
+def test_map_is_map_server_format_with_legs_not_table_top(apartment):
+    meta = yaml.safe_load((MAPS / "apartment" / "apartment.yaml").read_text())
+    assert meta["resolution"] == 0.05 and meta["origin"] == [-0.5, -0.5, 0.0] and meta["negate"] == 0
+    image = mapgen.rasterize(apartment, LASER_HEIGHT)
+    assert set(np.unique(image)) == {0, 205, 254}
+
+    def cell(x, y):
+        row = image.shape[0] - 1 - int((y - meta["origin"][1]) / 0.05)
+        return image[row, int((x - meta["origin"][0]) / 0.05)]
+
+    # dining table at (3.4, 3.8), 1.2 x 0.8 m, legs at +-0.55, +-0.35
+    assert cell(3.4, 3.8) == 254, "the table top is above the laser: free under it"
+    for dx in (-0.55, 0.55):
+        for dy in (-0.35, 0.35):
+            assert cell(3.4 + dx, 3.8 + dy) == 0, "table legs are occupied"
+    assert cell(0.0, 3.0) == 0  # west wall
+    assert cell(-0.4, 3.0) == 205  # outside the apartment: unknown
+    assert cell(2.45, 5.5) == 254  # living room door
+
+
+def test_rooms_yaml_lists_polygons_and_hotspots(apartment):
+    data = yaml.safe_load((MAPS / "apartment" / "rooms.yaml").read_text())
+    assert data["frame_id"] == "map"
+    for name in ROOMS:
+        room = data["rooms"][name]
+        assert len(room["polygon"]) >= 3
+        assert set(room["hotspot"]) == {"x", "y", "phi"}
+
+
+def _write_world(tmp_path, text):
+    (tmp_path / "types.yaml").write_text(TYPES.read_text())
+    path = tmp_path / "bad.world.yaml"
+    path.write_text(text)
+    return path
+
+
+GOOD = """
+include: [types.yaml]
+map: {resolution: 0.05, bounds: [[0, 0], [4, 4]]}
+walls:
+  - {type: wall, from: [0, 0], to: [4, 0]}
+objects:
+  - {type: chair, name: c1, pose: [2, 2, 0]}
+"""
+
+
+@pytest.mark.parametrize(
+    ("replace", "field"),
+    [
+        (("resolution: 0.05", "resolution: -1"), "map.resolution"),
+        (("resolution: 0.05", "resolution: abc"), "map.resolution"),
+        (("to: [4, 0]", "to: [4]"), "walls[0].to"),
+        (("type: wall", "type: wal"), "walls[0].type"),
+        (("type: chair", "type: wall"), "objects[0].type"),
+        (("pose: [2, 2, 0]", "pose: [2, 2, .nan]"), "objects[0].pose[2]"),
+        (("pose: [2, 2, 0]", "pos: [2, 2, 0]"), "objects[0].pose"),
+        (("bounds: [[0, 0], [4, 4]]", "bounds: [[0, 0], [-4, 4]]"), "map.bounds"),
+        (("include: [types.yaml]", "include: [missing.yaml]"), "file"),
+    ],
+)
+def test_malformed_world_names_file_and_field(tmp_path, replace, field):
+    path = _write_world(tmp_path, GOOD.replace(*replace))
+    with pytest.raises(WorldError) as err:
+        load_world(path)
+    assert field in str(err.value)
+    assert ("missing.yaml" if field == "file" else str(path)) in str(err.value)
+
+
+def test_good_synthetic_world_loads(tmp_path):
+    world = load_world(_write_world(tmp_path, GOOD))
+    assert len(world.scene.boxes) == 1 + 2  # wall, chair seat and backrest
+    assert len(world.scene.cylinders) == 4
+
+
+def test_not_yaml_is_reported(tmp_path):
+    path = _write_world(tmp_path, "map: [unclosed")
+    with pytest.raises(WorldError, match="not valid YAML"):
+        load_world(path)
+
+
+def test_person_path_through_a_wall_is_refused(apartment, tmp_path):
+    # from the living room straight north through the corridor wall (no door at x = 4)
+    person = Person("eve", path=[(4.0, 4.5), (4.0, 6.2)])
+    with pytest.raises(WorldError, match=r"person eve: path segment 0 .*corridor_s_2"):
+        check_path(person, apartment.scene)
+    # the same trip through the living room door is fine
+    check_path(Person("eve", path=[(2.45, 4.5), (2.45, 6.2)]), apartment.scene)
+
+
+def test_people_file_is_validated(apartment, tmp_path):
+    path = tmp_path / "people.yaml"
+    path.write_text("people:\n  - {id: a, path: [[4.0, 4.5], [4.0, 6.2]]}\n")
+    with pytest.raises(WorldError, match=str(path)):
+        load_people(path, apartment.scene)
+    path.write_text("people:\n  - {id: a, pose: [1, 2]}\n")
+    with pytest.raises(WorldError, match=r"people\[0\]\.pose"):
+        load_people(path, apartment.scene)
+    path.write_text("people:\n  - {id: a, pose: [1, 3, 0], mode: run}\n")
+    with pytest.raises(WorldError, match=r"people\[0\]\.mode"):
+        load_people(path, apartment.scene)
+
+
+def test_shipped_people_are_valid(apartment):
+    people = load_people(MAPS / "apartment" / "people.yaml", apartment.scene)
+    assert len(people) == 2 and all(p.walking for p in people)
+    assert math.isclose(people[0].speed, 0.5)
+
+
+def test_florence_locator_config_matches_the_apartment(apartment):
+    """florence_locator's shipped rooms and hotspots are the apartment's (one source: the world file)."""
+    config = MAPS.parent / "src" / "florence_locator" / "config"
+    rooms = yaml.safe_load((config / "rooms.yaml").read_text())["rooms"]
+    hotspots = yaml.safe_load((config / "hotspots.yaml").read_text())["hotspots"]
+    assert set(rooms) == set(hotspots) == set(apartment.rooms)
+    for name, room in apartment.rooms.items():
+        assert rooms[name] == room.polygon
+        assert (hotspots[name]["x"], hotspots[name]["y"], hotspots[name]["phi"]) == pytest.approx(room.hotspot)
+
+
+def test_navigation_launch_files_default_to_the_shipped_map():
+    root = MAPS.parent
+    for launch in ("src/turtlebot_control/launch/turtlebot_2dnav_control.launch",
+                   "src/florence_bringup/launch/florence_bringup.launch",
+                   "src/user_test/launch/florence_user_test.launch"):
+        assert "$(find florence_sim)/../../maps/apartment/apartment.yaml" in (root / launch).read_text(), launch
