@@ -162,3 +162,25 @@ def test_occupancy_map_rejects_bad_maps():
         OccupancyMap(np.zeros((3, 3)), 0.0, (0, 0))
     with pytest.raises(ValueError, match="non-empty"):
         OccupancyMap(np.zeros((0, 3)), 0.1, (0, 0))
+
+
+def test_off_free_weight_penalises_particles_in_walls():
+    loc = make_localizer()
+    loc.config.off_free_weight = 0.01
+    loc.set_pose([2.0, 1.5, 0.0], np.diag([0.01, 0.01, 0.01]))
+    loc.pf.particles[:10, :2] = [0.02, 0.02]  # inside the outer wall
+    loc.pf.particles[10:20, :2] = [-5.0, -5.0]  # off the map
+    ranges = simulate_scan(loc.map, [2.0, 1.5, 0.0])
+    loc.config.filter.resample_interval = 1000  # keep the weights to look at them
+    loc.process_scan(np.zeros(3), LASER_XY, BEARINGS, ranges, 0.02, 5.6)
+    w = loc.pf.weights
+    assert w[:20].max() < 0.05 * w[20:].min()
+
+
+def test_bad_config_is_named():
+    with pytest.raises(ValueError, match="off_free_weight"):
+        AmclConfig(off_free_weight=2.0).validate()
+    with pytest.raises(ValueError, match="odom_alpha3"):
+        AmclConfig(odom_alphas=(0.1, 0.1, -1.0, 0.1, 0.1)).validate()
+    with pytest.raises(ValueError, match="laser_model_type"):
+        AmclConfig(laser_model_type="likelihood_field_prob").validate()

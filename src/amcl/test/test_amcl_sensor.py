@@ -136,3 +136,28 @@ def test_upside_down_laser_mirrors_bearings():
     np.testing.assert_allclose(upright, angles, atol=1e-12)
     yawed = beams_in_base((0, 0, 0), (0, 0, math.sin(0.25), math.cos(0.25)), angles)[1]
     np.testing.assert_allclose(yawed, angles + 0.5, atol=1e-12)
+
+
+def test_interpolated_distance_measures_to_the_surface():
+    """A wall occupying cells x >= 1.5 (cell 15 of 0.1 m): the surface is at x = 1.5 exactly."""
+    data = np.zeros((20, 20), dtype=np.int8)
+    data[:, 15:] = 100
+    omap = OccupancyMap(data, 0.1, (0.0, 0.0))
+    xs = np.array([1.5, 1.45, 1.3, 1.12, 0.8])
+    d = omap.distance_interpolated(xs, np.full(xs.shape, 1.0))
+    np.testing.assert_allclose(d, 1.5 - xs, atol=1e-6)
+    # ROS's lookup: centre-to-centre distance of the cells, quantised and half a cell long.
+    assert omap.distance_at(np.array([1.45]), np.array([1.0]))[0] == pytest.approx(0.1)
+    assert omap.distance_interpolated(np.array([100.0]), np.array([1.0]))[0] == 2.0  # off the map: the cap
+
+
+def test_interpolated_field_prefers_the_true_pose_to_sub_cell_precision():
+    omap = room_map()
+    laser_xy = np.array([0.06, 0.0])
+    bearings = np.linspace(-1.57, 1.57, 60)
+    truth = np.array([0.52, 0.21, 0.1])
+    ranges = scan_from(omap, truth, laser_xy, bearings)
+    params = LaserParams(sigma_hit=0.05, interpolate=True)
+    shifts = np.array([[dx, 0.0, 0.0] for dx in np.linspace(-0.1, 0.1, 21)])
+    w = likelihood_field_weights(truth + shifts, omap, laser_xy, bearings, ranges, 5.6, params)
+    assert abs(shifts[np.argmax(w), 0]) <= 0.03

@@ -44,6 +44,7 @@ class AmclConfig:
     odom_alphas: tuple = (0.2, 0.2, 0.2, 0.2, 0.2)
     update_min_d: float = 0.2  # [m]
     update_min_a: float = math.pi / 6.0  # [rad]
+    off_free_weight: float = 1.0  # factor on p of particles not on a free cell (1: ROS behaviour)
 
     def validate(self):
         """Raise ValueError naming the parameter that is out of range."""
@@ -63,6 +64,8 @@ class AmclConfig:
         for name in ("sigma_hit", "lambda_short", "likelihood_max_dist"):
             if not getattr(self.laser, name) > 0.0:
                 raise ValueError(f"laser_{name} must be > 0, got {getattr(self.laser, name)}")
+        if not 0.0 <= self.off_free_weight <= 1.0:
+            raise ValueError(f"off_free_weight must be in [0, 1], got {self.off_free_weight}")
         if not (self.update_min_d >= 0.0 and self.update_min_a >= 0.0):
             raise ValueError("update_min_d and update_min_a must be >= 0")
 
@@ -173,6 +176,9 @@ class Localizer:
         ranges, range_max = self.laser_ranges(ranges[use], scan_range_min, scan_range_max)
         weights = sensor_weights(c.laser_model_type, self.pf.particles, self.map, np.asarray(laser_xy, dtype=float),
                                  bearings[use], ranges, range_max, c.laser)
+        if c.off_free_weight < 1.0:
+            weights = np.where(self.map.is_free(self.pf.particles[:, 0], self.pf.particles[:, 1]), weights,
+                               weights * c.off_free_weight)
         self.pf.update_sensor(weights)
         self.resample_count += 1
         resampled = False

@@ -27,10 +27,14 @@ ROS Parameters (ROS amcl names and defaults):
     ~laser_lambda_short (double, 0.1, 1/m): exponential rate of the short term (beam model).
     ~laser_likelihood_max_dist (double, 2.0, m): cap of the likelihood field's distance.
     ~laser_model_type (str, "likelihood_field"): "likelihood_field" or "beam".
+    ~laser_likelihood_interpolate (bool, false): Florence addition: the likelihood field's distance is
+        interpolated between cell centres and measured to the obstacle's surface (false: ROS's cell lookup).
     ~odom_model_type (str, "diff"): "diff" (ROS's original) or "diff-corrected".
     ~odom_alpha1..4 (double, 0.2): rotation/translation noise; ~odom_alpha5 (0.2): unused (omni only).
     ~odom_frame_id (str, "odom"), ~base_frame_id (str, "base_link"), ~global_frame_id (str, "map").
     ~tf_broadcast (bool, true): publish map->odom.
+    ~off_free_weight (double, 1.0): Florence addition: factor on the sensor likelihood of particles that are
+        not on a free map cell (inside furniture, walls, unknown space or off the map); 1.0 is ROS amcl.
 
 Publishers:
     amcl_pose (geometry_msgs/PoseWithCovarianceStamped, latched): the estimate after each resampling.
@@ -93,7 +97,8 @@ def read_config():
         z_hit=float(g("~laser_z_hit", 0.95)), z_short=float(g("~laser_z_short", 0.1)),
         z_max=float(g("~laser_z_max", 0.05)), z_rand=float(g("~laser_z_rand", 0.05)),
         sigma_hit=float(g("~laser_sigma_hit", 0.2)), lambda_short=float(g("~laser_lambda_short", 0.1)),
-        likelihood_max_dist=float(g("~laser_likelihood_max_dist", 2.0)))
+        likelihood_max_dist=float(g("~laser_likelihood_max_dist", 2.0)),
+        interpolate=bool(g("~laser_likelihood_interpolate", False)))
     config = AmclConfig(
         filter=filt, laser=laser,
         laser_model_type=str(g("~laser_model_type", "likelihood_field")),
@@ -101,7 +106,8 @@ def read_config():
         laser_min_range=float(g("~laser_min_range", -1.0)), laser_max_range=float(g("~laser_max_range", -1.0)),
         odom_model_type=str(g("~odom_model_type", "diff")),
         odom_alphas=tuple(float(g(f"~odom_alpha{i}", 0.2)) for i in range(1, 6)),
-        update_min_d=float(g("~update_min_d", 0.2)), update_min_a=float(g("~update_min_a", math.pi / 6.0)))
+        update_min_d=float(g("~update_min_d", 0.2)), update_min_a=float(g("~update_min_a", math.pi / 6.0)),
+        off_free_weight=float(g("~off_free_weight", 1.0)))
     config.validate()
     return config
 

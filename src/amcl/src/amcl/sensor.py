@@ -29,6 +29,7 @@ class LaserParams:
     sigma_hit: float = 0.2  # [m]
     lambda_short: float = 0.1  # [1/m]
     likelihood_max_dist: float = 2.0  # [m]
+    interpolate: bool = False  # likelihood field: sub-cell distance to the obstacle surface (False: ROS)
 
 
 class OccupancyMap:
@@ -51,6 +52,13 @@ class OccupancyMap:
         else:
             dist = np.full(data.shape, np.inf)
         self.dist = np.minimum(dist, self.max_occ_dist).astype(np.float32)  # [m]
+        # The field with a one-cell border at max_occ_dist, flattened: lookups clip instead of masking.
+        self._dist_padded = np.pad(self.dist, 1, constant_values=self.max_occ_dist).ravel()
+        # Signed distance at cell centres to the nearest obstacle *surface* (half a cell nearer than the
+        # nearest occupied cell's centre; -res/2 inside an obstacle), for sub-cell interpolation.
+        signed = np.where(self.occupied, -0.5, np.minimum(dist / self.resolution, 1e6) - 0.5) * self.resolution
+        self._signed_padded = np.pad(np.minimum(signed, self.max_occ_dist), 2,
+                                     constant_values=self.max_occ_dist).astype(np.float32).ravel()
         rows, cols = np.nonzero(self.free)
         self.free_cells = np.column_stack([cols, rows])  # (col, row) of every free cell
 
@@ -70,10 +78,28 @@ class OccupancyMap:
     def distance_at(self, x, y):
         """Distance to the nearest occupied cell [m], max_occ_dist outside the map."""
         col, row = self.world_to_cell(x, y)
-        ok = self.inside(col, row)
-        out = np.full(np.shape(col), self.max_occ_dist, dtype=np.float64)
-        out[ok] = self.dist[row[ok], col[ok]]
-        return out
+        np.clip(col + 1, 0, self.width + 1, out=col)
+        np.clip(row + 1, 0, self.height + 1, out=row)
+        return self._dist_padded[row * (self.width + 2) + col]
+
+    def distance_interpolated(self, x, y):
+        """Distance to the nearest obstacle surface [m], bilinear between cell centres, capped at max_occ_dist.
+
+        Unlike ``distance_at`` (ROS: the cell's centre-to-centre distance), this has no bias of half
+        a cell towards obstacles and no quantisation to the cell grid.
+        """
+        u = (np.asarray(x) - self.origin[0]) / self.resolution - 0.5 + 2.0  # +2: the padding
+        v = (np.asarray(y) - self.origin[1]) / self.resolution - 0.5 + 2.0
+        u = np.clip(u, 0.0, self.width + 2.999)
+        v = np.clip(v, 0.0, self.height + 2.999)
+        i, j = np.floor(u).astype(np.int64), np.floor(v).astype(np.int64)
+        fu, fv = u - i, v - j
+        stride = self.width + 4
+        base = j * stride + i
+        f = self._signed_padded
+        d = ((f[base] * (1 - fu) + f[base + 1] * fu) * (1 - fv)
+             + (f[base + stride] * (1 - fu) + f[base + stride + 1] * fu) * fv)
+        return np.minimum(np.abs(d), self.max_occ_dist)
 
     def is_free(self, x, y):
         col, row = self.world_to_cell(x, y)
@@ -151,7 +177,7 @@ def likelihood_field_weights(particles, omap, laser_xy, bearings, ranges, range_
     if ranges.size == 0:
         return np.ones(len(particles))
     ex, ey = beam_endpoints(particles, laser_xy, bearings, ranges)
-    d = omap.distance_at(ex, ey)
+    d = omap.distance_interpolated(ex, ey) if params.interpolate else omap.distance_at(ex, ey)
     pz = params.z_hit * np.exp(-(d * d) / (2.0 * params.sigma_hit**2)) + params.z_rand / range_max
     return 1.0 + np.sum(pz**3, axis=1)
 
