@@ -20,6 +20,8 @@ SHORT_TOUR = [(1.2, 4.6), (2.45, 4.9), (2.45, 5.9)]  # living room -> corridor d
 def amcl_in_sim(rospy_node, ros_master, launch):
     import rosgraph
 
+    master = rosgraph.Master("/pytest")
+    had_sim_time = master.hasParam("/use_sim_time")
     map_yaml = str(workspace.root() / "maps" / "apartment" / "apartment.yaml")
     sim = launch("florence_sim", "florence_sim.launch", "people:=", "real_time_factor:=2.0", "seed:=3",
                  f"x:={START[0]}", f"y:={START[1]}", f"yaw:={START[2]}")
@@ -33,6 +35,10 @@ def amcl_in_sim(rospy_node, ros_master, launch):
         yield sim, amcl
     finally:
         server.stop()
+        # florence_sim.launch set /use_sim_time on the session's master: nodes of later tests must not
+        # wait for a /clock that nobody publishes any more.
+        if not had_sim_time and master.hasParam("/use_sim_time"):
+            master.deleteParam("/use_sim_time")
 
 
 def test_amcl_follows_a_tour_and_resets(amcl_in_sim, tf_buffer):
