@@ -95,7 +95,7 @@ class FakeRobot:
 
 
 @pytest.fixture
-def setup(rospy_node, ros_master, tmp_path):
+def setup(rospy_node, ros_master, tmp_path, tf_buffer):
     from amcl.sensor import OccupancyMap
 
     grid = GridMap(data=world(), resolution=RES, origin=(0.0, 0.0, 0.0))
@@ -117,6 +117,7 @@ def setup(rospy_node, ros_master, tmp_path):
     for proc in procs:
         print(f"----- {proc.name} -----\n{proc.output()}")  # shown by pytest when the test failed
         proc.stop()
+    tf_buffer.clear()  # this test's map -> odom must not mix with later tests' transforms
 
 
 def test_amcl_tracks_resets_and_relocalizes(setup, tf_buffer):
@@ -163,6 +164,27 @@ def test_amcl_tracks_resets_and_relocalizes(setup, tf_buffer):
         # map -> odom, post-dated by transform_tolerance.
         t = tf_buffer.lookup_transform("map", "amcl_test/odom", rospy.Time(0), rospy.Duration(5.0))
         assert t.header.stamp > rospy.Time.now() + rospy.Duration(0.2)
+
+        # save_pose_rate (default 0.5 Hz) stores the estimate in ~initial_pose_*.
+        est = latest["pose"].pose.pose.position
+        wait_for(lambda: abs(rospy.get_param("amcl_test/amcl/initial_pose_x") - est.x) < 0.05, 10,
+                 what="the estimate saved in ~initial_pose_x")
+
+        # set_map replaces the map and re-initialises at the given pose.
+        from nav_msgs.srv import GetMap, SetMap
+
+        rospy.wait_for_service("amcl_test/static_map", timeout=10)
+        grid = rospy.ServiceProxy("amcl_test/static_map", GetMap)().map
+        moved = PoseWithCovarianceStamped()
+        moved.header.frame_id = "map"
+        moved.pose.pose.position.x, moved.pose.pose.position.y = 3.0, 2.0
+        moved.pose.pose.orientation.w = 1.0
+        moved.pose.covariance[0] = moved.pose.covariance[7] = moved.pose.covariance[35] = 0.01
+        assert rospy.ServiceProxy("amcl_test/set_map", SetMap)(grid, moved).success
+        rospy.ServiceProxy("amcl_test/request_nomotion_update", Empty)()
+        wait_for(lambda: math.hypot(latest["pose"].pose.pose.position.x - 3.0,
+                                    latest["pose"].pose.pose.position.y - 2.0) < 0.5, 20,
+                 what="amcl_pose at set_map's initial pose")
 
         # initialpose resets the filter to the given pose (a wrong one: the estimate jumps there).
         reset = PoseWithCovarianceStamped()

@@ -17,7 +17,7 @@ SHORT_TOUR = [(1.2, 4.6), (2.45, 4.9), (2.45, 5.9)]  # living room -> corridor d
 
 
 @pytest.fixture
-def amcl_in_sim(rospy_node, ros_master, launch):
+def amcl_in_sim(rospy_node, ros_master, launch, tf_buffer):
     import rosgraph
 
     master = rosgraph.Master("/pytest")
@@ -39,6 +39,8 @@ def amcl_in_sim(rospy_node, ros_master, launch):
         # wait for a /clock that nobody publishes any more.
         if not had_sim_time and master.hasParam("/use_sim_time"):
             master.deleteParam("/use_sim_time")
+        # This simulation's map -> odom and robot frames (sim time) must not mix with later tests' data.
+        tf_buffer.clear()
 
 
 def test_amcl_follows_a_tour_and_resets(amcl_in_sim, tf_buffer):

@@ -292,11 +292,12 @@ class AmclNode:
                     self.force_publish = False
                     self.publish_pose(result, scan.header.stamp)
                     self.last_map_to_odom = map_to_odom(result.pose, odom_pose)
-                    self.maybe_save_pose(result)
             elif result.reason not in ("", "not moved enough"):
                 rospy.logwarn_throttle(5.0, LOG + f"skipping a scan: {result.reason}")
             if self.last_map_to_odom is not None and self.tf_broadcast:
                 self.publish_tf(self.last_map_to_odom, scan.header.stamp + self.transform_tolerance)
+            if self.localizer.last_estimate is not None:
+                self.maybe_save_pose(*self.localizer.last_estimate)
 
     def publish_pose(self, result, stamp):
         msg = PoseWithCovarianceStamped()
@@ -331,16 +332,16 @@ class AmclNode:
         set_yaw(t.transform.rotation, float(transform[2]))
         self.tf_pub.sendTransform(t)
 
-    def maybe_save_pose(self, result):
+    def maybe_save_pose(self, pose, cov):
         if self.save_period is None:
             return
         now = rospy.Time.now()
         if self.last_save is not None and now - self.last_save < self.save_period:
             return
         self.last_save = now
-        for name, value in (("initial_pose_x", result.pose[0]), ("initial_pose_y", result.pose[1]),
-                            ("initial_pose_a", result.pose[2]), ("initial_cov_xx", result.cov[0, 0]),
-                            ("initial_cov_yy", result.cov[1, 1]), ("initial_cov_aa", result.cov[2, 2])):
+        saved = {"initial_pose_x": pose[0], "initial_pose_y": pose[1], "initial_pose_a": pose[2],
+                 "initial_cov_xx": cov[0, 0], "initial_cov_yy": cov[1, 1], "initial_cov_aa": cov[2, 2]}
+        for name, value in saved.items():
             rospy.set_param(f"~{name}", float(value))
 
 
