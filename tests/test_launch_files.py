@@ -17,12 +17,6 @@ from florence_harness import workspace
 # Executables the seed's launch files start that are not written yet, with the issue
 # that delivers them. An entry must be removed once the executable exists (checked below).
 PENDING = {
-    ("turtlebot_node", "turtlebot_node.py"): "issue 7 (Create driver)",
-    ("hokuyo_node", "hokuyo_node"): "issue 7 (Hokuyo driver)",
-    ("laser_filter", "laser_filter_node"): "issue 4",
-    ("velocity_filter", "velocity_filter_node"): "issue 4",
-    ("laser_combinator", "laser_combinator_node"): "issue 4",
-    ("pointcloud_to_laserscan", "pointcloud_to_laserscan_node"): "issue 4",
     ("move_base", "move_base"): "issue 6",
     ("openni_camera", "openni_camera_node"): "not scheduled yet (real Kinect driver)",
     ("kinect_aux", "kinect_aux_node"): "not scheduled yet (real Kinect tilt driver)",

@@ -1,8 +1,8 @@
 """The iRobot Create base: differential drive, bumpers, odometry and gyro (no ROS).
 
 State vector of the true pose: (x [m], y [m], yaw [rad]) in the world (map)
-frame; odometry (x, y, yaw) in the odom frame, which starts equal to the world
-pose and then drifts with the configured wheel and gyro errors, as the
+frame; odometry (x, y, yaw) in the odom frame, which starts at zero where the
+robot starts and then drifts with the configured wheel and gyro errors, as the
 turtlebot_node odometry (wheels for distance, gyro for heading) does.
 """
 
@@ -81,8 +81,9 @@ class DiffDriveBase:
     def set_pose(self, x, y, yaw, reset_odom=False):
         """Move the robot (a test service); odometry keeps counting unless reset."""
         self.x, self.y, self.yaw = float(x), float(y), float(yaw)
-        if reset_odom:
-            self.ox, self.oy, self.oyaw = self.x, self.y, self.yaw
+        if reset_odom:  # odometry starts at zero where the robot is, as the Create driver's does
+            self.ox = self.oy = self.oyaw = 0.0
+            self.odom_origin = (self.x, self.y, self.yaw)
             self.odom_v = self.odom_w = 0.0
         self.v = self.w = 0.0
 
@@ -107,36 +108,34 @@ class DiffDriveBase:
         ds = self.v * dt
         heading = self.yaw + dyaw / 2
         nx, ny = self.x + ds * math.cos(heading), self.y + ds * math.sin(heading)
-        before = self._clearance(scene, self.x, self.y)
-        after = self._clearance(scene, nx, ny)
+        # one clearance query: centre now and after the move, and the bumper probes at both
+        r = self.cfg.radius + self.cfg.contact_margin
+        angles = self.yaw + dyaw + PROBE_BEARINGS
+        ring = np.stack([r * np.cos(angles), r * np.sin(angles)], axis=1)
+        here, there = np.array([self.x, self.y]), np.array([nx, ny])
+        points = np.concatenate([[here, there], ring + here, ring + there])
+        dist, _ = scene.clearance(points, z_max=cfg.height, z_min=0.0)
+        before, after = dist[0] - cfg.radius, dist[1] - cfg.radius
+        probes = dist[2 + len(ring):]
         moved = ds
         if after < 0 and after < before:  # would push into an obstacle: the bumper stops the robot
             nx, ny = self.x, self.y
+            probes = dist[2:2 + len(ring)]
             moved = 0.0
-            if abs(self.v) > 0:
-                log.debug("collision at (%.2f, %.2f)", self.x, self.y)
             self.v = 0.0
             self.w = 0.0
             dyaw = 0.0
         self.x, self.y = nx, ny
         self.yaw = _wrap(self.yaw + dyaw)
-        self._update_bumpers(scene)
+        self._update_bumpers(probes <= 0)
         self._odometry(dt, moved, dyaw)
 
-    def _clearance(self, scene, x, y):
-        dist, _ = scene.clearance([[x, y]], z_max=self.cfg.height, z_min=0.0)
-        return float(dist[0]) - self.cfg.radius
-
-    def _update_bumpers(self, scene):
-        r = self.cfg.radius + self.cfg.contact_margin
-        angles = self.yaw + PROBE_BEARINGS
-        probes = np.stack([self.x + r * np.cos(angles), self.y + r * np.sin(angles)], axis=1)
-        dist, _ = scene.clearance(probes, z_max=self.cfg.height, z_min=0.0)
-        hit = dist <= 0
+    def _update_bumpers(self, hit):
+        """Bumper bits from which probes (at PROBE_BEARINGS) touch an obstacle."""
         bumps = 0
-        if hit[PROBE_BEARINGS < 0].any() or hit[PROBE_BEARINGS == 0].any():
+        if hit[PROBE_BEARINGS <= 0].any():
             bumps |= BUMP_RIGHT
-        if hit[PROBE_BEARINGS > 0].any() or hit[PROBE_BEARINGS == 0].any():
+        if hit[PROBE_BEARINGS >= 0].any():
             bumps |= BUMP_LEFT
         contact = bumps != 0
         if contact and not self.in_contact:
@@ -161,6 +160,12 @@ class DiffDriveBase:
         self.odom_v, self.odom_w = ds / dt, rate
         self.distance_acc += ds
         self.angle_acc += dth
+
+    def odom_in_world(self):
+        """The odometry pose (x, y, yaw) expressed in the world, through the pose it started at."""
+        x0, y0, yaw0 = self.odom_origin
+        c, s = math.cos(yaw0), math.sin(yaw0)
+        return x0 + c * self.ox - s * self.oy, y0 + s * self.ox + c * self.oy, _wrap(yaw0 + self.oyaw)
 
     def take_packet_deltas(self):
         """(distance [m], angle [rad]) since the previous call, like the Create's sensor packet."""

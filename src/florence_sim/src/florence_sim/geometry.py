@@ -169,14 +169,17 @@ class Scene:
         return best, owner
 
     # ------------------------------------------------------------------ 3D queries
-    def cast_3d(self, origin, directions, max_range, groups=None):
+    def cast_3d(self, origin, directions, max_range, groups=None, heading=None, ray_angles=None):
         """Ray parameter ``t`` of the first hit of each ray ``origin + t * d`` (d: (N, 3),
         need not be unit length) and the hit primitive index (-1 none, -2 floor, -3
         ceiling). ``t`` is ``inf`` without a hit or beyond ``max_range`` in ``t``'s unit
         (pass directions whose relevant component is 1 to get depth directly).
 
-        ``groups`` (list of index arrays into the rays, e.g. image column strips) lets
-        each group test only the primitives inside its own horizontal angle interval.
+        ``groups`` (list of slices or index arrays into the rays, e.g. image column
+        strips) lets each group test only the primitives inside its own horizontal angle
+        interval. A caller that knows them may pass the reference ``heading`` [rad] and
+        the rays' horizontal angles relative to it (``ray_angles``), or per-group
+        ``(lo, hi)`` bounds as ``ray_angles`` (a list as long as ``groups``).
         """
         o = np.asarray(origin, dtype=np.float32)
         d = np.asarray(directions, dtype=np.float32)
@@ -210,19 +213,23 @@ class Scene:
         cyls = self._cylinders_near(o[:2], -np.inf, np.inf, reach)
 
         if groups is None:
-            groups = [np.arange(n)]
+            groups = [slice(0, n)]
         # horizontal angle intervals relative to the mean viewing direction
-        mean = d[:, :2].mean(axis=0)
-        heading = np.arctan2(mean[1], mean[0])
-        ray_ang = _wrap(np.arctan2(d[:, 1], d[:, 0]) - heading)
+        if heading is None or ray_angles is None:
+            mean = d[:, :2].mean(axis=0)
+            heading = np.arctan2(mean[1], mean[0])
+            ray_ang = _wrap(np.arctan2(d[:, 1], d[:, 0]) - heading)
+            bounds = [(ray_ang[idx].min(), ray_ang[idx].max()) for idx in groups]
+        else:
+            bounds = ray_angles if len(ray_angles) == len(groups) else [
+                (ray_angles[idx].min(), ray_angles[idx].max()) for idx in groups]
         face_lo, face_hi = _interval(_wrap(np.arctan2(self.face_a[faces, 1] - o[1], self.face_a[faces, 0] - o[0])
                                            - heading),
                                      _wrap(np.arctan2(self.face_b[faces, 1] - o[1], self.face_b[faces, 0] - o[0])
                                            - heading))
         box_lo, box_hi = _disc_interval(o, self.box_center[boxes], np.hypot(*self.box_half[boxes].T), heading)
         cyl_lo, cyl_hi = _disc_interval(o, self.cyl_center[cyls], self.cyl_radius[cyls], heading)
-        for idx in groups:
-            lo, hi = ray_ang[idx].min(), ray_ang[idx].max()
+        for idx, (lo, hi) in zip(groups, bounds, strict=True):
             t, who = self._cast_3d_group(
                 o, d[idx], best[idx], owner[idx],
                 faces[(face_hi >= lo) & (face_lo <= hi)],

@@ -13,7 +13,7 @@ ROS Parameters:
     ~min_ang, ~max_ang (float, -pi/2, pi/2, rad): requested scan span, as hokuyo_node's
         parameters (clipped to the URG-04LX's +-2.0862 rad, rounded to its steps)
     ~laser_noise (float, 0.01, m): range noise std below 1 m (1 % of the range beyond)
-    ~laser_rate (float, 10, Hz), ~camera_rate (float, 15, Hz), ~odom_rate (float, 50, Hz)
+    ~laser_rate (float, 10, Hz), ~camera_rate (float, 15, Hz), ~odom_rate (float, 30, Hz)
     ~camera_width, ~camera_height (int, 160, 120, px): Kinect image size (up to 640x480)
     ~depth_noise (float, 0.0012, 1/m): depth noise std = depth_noise * depth^2
     ~render_without_subscribers (bool, false): render the Kinect even when nobody listens
@@ -114,7 +114,7 @@ class SimNode:
         camera = CameraConfig(width=int(p("~camera_width", 160)), height=int(p("~camera_height", 120)),
                               depth_noise=float(p("~depth_noise", 0.0012)))
         rates = Rates(laser=float(p("~laser_rate", 10.0)), camera=float(p("~camera_rate", 15.0)),
-                      odom=float(p("~odom_rate", 50.0)))
+                      odom=float(p("~odom_rate", 30.0)))
         self.render_always = bool(p("~render_without_subscribers", False))
         base_params = {
             "cmd_timeout": float(p("~cmd_vel_timeout", 0.6)),
@@ -333,7 +333,7 @@ class SimNode:
         self.pub_depth_info.publish(m.camera_info(stamp, "camera_depth_optical_frame"))
         self.pub_rgb_info.publish(m.camera_info(stamp, "camera_rgb_optical_frame"))
         if depth_wanted:
-            depth, _ = self.sim.render_camera("camera_depth_optical_frame")
+            depth, _ = self.sim.render_camera("camera_depth_optical_frame", color=False)
             self.pub_depth.publish(m.depth_image(stamp, depth))
         if rgb_wanted:
             depth, rgb = self.sim.render_camera("camera_rgb_optical_frame")
@@ -599,13 +599,14 @@ class _Messages:
         from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
         b = self.sim.base
+        ox, oy, _ = b.odom_in_world()
         arr = DiagnosticArray()
         arr.header.stamp = stamp
         base = DiagnosticStatus(level=DiagnosticStatus.WARN if b.bumps else DiagnosticStatus.OK,
                                 name="turtlebot_node: Base (simulated)",
                                 message="bumper pressed" if b.bumps else "OK", hardware_id="florence_sim")
         base.values = [KeyValue("bumps_wheeldrops", str(b.bumps)), KeyValue("collisions", str(b.collisions)),
-                       KeyValue("odom_error_m", f"{math.hypot(b.x - b.ox, b.y - b.oy):.3f}")]
+                       KeyValue("odom_error_m", f"{math.hypot(b.x - ox, b.y - oy):.3f}")]
         laser = DiagnosticStatus(level=DiagnosticStatus.OK, name="hokuyo_node: Hokuyo (simulated)",
                                  message="OK", hardware_id="florence_sim URG-04LX")
         sim = DiagnosticStatus(level=DiagnosticStatus.OK, name="florence_sim: Simulation", message="running",

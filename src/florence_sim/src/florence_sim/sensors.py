@@ -115,32 +115,61 @@ class DepthCamera:
         u, v = np.meshgrid(np.arange(w), np.arange(h))
         self.rays = np.stack([(u - self.cx) / self.fx, (v - self.cy) / self.fy, np.ones_like(u, dtype=float)],
                              axis=-1).reshape(-1, 3)  # optical frame, z = 1
+        # rays ordered strip by strip (columns), so that each strip is a contiguous slice
         cols = np.tile(np.arange(w), h)
         edges = np.linspace(0, w, min(self.STRIPS, w) + 1).astype(int)
-        self.groups = [np.nonzero((cols >= a) & (cols < b))[0] for a, b in itertools.pairwise(edges)]
+        strips = [np.nonzero((cols >= a) & (cols < b))[0] for a, b in itertools.pairwise(edges)]
+        self.order = np.concatenate(strips)  # ray index in strip order -> pixel index
+        self.unorder = np.argsort(self.order)  # pixel index -> ray index in strip order
+        starts = np.cumsum([0] + [len(g) for g in strips])
+        self.groups = [slice(a, b) for a, b in itertools.pairwise(starts)]
+        self._ordered_rays = self.rays[self.order]
+        self._bounds = {}  # optical-axis elevation -> per-strip angle bounds
+        self._normals = self.rng.standard_normal(w * h + (1 << 16), dtype=np.float32)
+
+    def _strip_bounds(self, rot):
+        """Horizontal angle interval of each strip relative to the optical axis's heading.
+
+        It depends only on the camera's elevation (tilt), not on the robot's yaw: cached."""
+        axis = rot[:, 2]
+        key = round(float(axis[2]), 6)
+        if key not in self._bounds:
+            heading = math.atan2(axis[1], axis[0])
+            c, s = math.cos(-heading), math.sin(-heading)
+            level = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]) @ rot
+            dirs = self._ordered_rays @ level.T
+            angles = np.arctan2(dirs[:, 1], dirs[:, 0])
+            self._bounds[key] = [(angles[g].min(), angles[g].max()) for g in self.groups]
+        return self._bounds[key]
 
     @property
     def K(self):
         return [self.fx, 0.0, self.cx, 0.0, self.fy, self.cy, 0.0, 0.0, 1.0]
 
-    def render(self, scene, optical_pose, noise=True):
-        """Depth [m] (H, W) float32 with NaN for no return, and RGB (H, W, 3) uint8,
-        for an optical frame at ``optical_pose`` (4x4 in the world)."""
+    def render(self, scene, optical_pose, noise=True, color=True):
+        """Depth [m] (H, W) float32 with NaN for no return, and RGB (H, W, 3) uint8 (None
+        unless ``color``), for an optical frame at ``optical_pose`` (4x4 in the world)."""
         cfg = self.cfg
-        dirs = self.rays @ optical_pose[:3, :3].T
-        depth, owner = scene.cast_3d(optical_pose[:3, 3], dirs, cfg.max_range, self.groups)
-        table = np.concatenate([scene.colors, [cfg.ceiling_color, cfg.floor_color, (0, 0, 0)]]).astype(np.float32)
-        color = table[np.where(owner < 0, len(scene.colors) + 3 + owner, owner)]
-        shade = np.clip(1.0 - 0.12 * np.nan_to_num(depth, posinf=cfg.max_range), 0.4, 1.0)
-        rgb = (color * shade[:, None] * 255).astype(np.uint8)
-        depth = depth.astype(np.float32)
-        if noise and cfg.depth_noise:
-            finite = np.isfinite(depth)
-            depth[finite] += (self.rng.standard_normal(finite.sum()) * cfg.depth_noise * depth[finite] ** 2).astype(
-                np.float32)
-        depth[(depth < cfg.min_range) | ~np.isfinite(depth)] = np.nan
+        rot = optical_pose[:3, :3]
+        dirs = self._ordered_rays @ rot.T
+        heading = math.atan2(rot[1, 2], rot[0, 2])
+        depth, owner = scene.cast_3d(optical_pose[:3, 3], dirs, cfg.max_range, self.groups, heading,
+                                     self._strip_bounds(rot))
+        depth, owner = depth[self.unorder], owner[self.unorder]
         h, w = cfg.height, cfg.width
-        return depth.reshape(h, w), rgb.reshape(h, w, 3)
+        rgb = None
+        if color:
+            table = np.concatenate([scene.colors, [cfg.ceiling_color, cfg.floor_color, (0, 0, 0)]]).astype(np.float32)
+            shade = np.clip(1.0 - 0.12 * np.minimum(depth, cfg.max_range), 0.4, 1.0)
+            rgb = (table[np.where(owner < 0, len(scene.colors) + 3 + owner, owner)] * (255 * shade[:, None]))
+            rgb = rgb.astype(np.uint8).reshape(h, w, 3)
+        with np.errstate(invalid="ignore"):
+            if noise and cfg.depth_noise:
+                # a random window of a pre-drawn normal table: drawing 19200 normals a frame costs more
+                start = int(self.rng.integers(0, len(self._normals) - len(depth)))
+                depth += self._normals[start:start + len(depth)] * np.float32(cfg.depth_noise) * depth * depth
+            depth[~np.isfinite(depth) | (depth < cfg.min_range)] = np.nan
+        return depth.reshape(h, w), rgb
 
     def points(self, depth):
         """Points (H, W, 3) [m] in the optical frame for a depth image (NaN stays NaN)."""

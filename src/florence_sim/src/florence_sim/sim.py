@@ -27,7 +27,7 @@ class Rates:
 
     laser: float = 10.0
     camera: float = 15.0
-    odom: float = 50.0
+    odom: float = 30.0  # turtlebot_node update_rate
     sensor_state: float = 10.0
     kinect_aux: float = 10.0
     people: float = 10.0
@@ -65,6 +65,7 @@ class Simulator:
                               rng=np.random.default_rng(rng.integers(1 << 31)))
         self.camera = DepthCamera(self.cfg.camera, rng=np.random.default_rng(rng.integers(1 << 31)))
         self.people = {}
+        self._scene, self._scene_dirty = None, True
         for p in people:
             self.add_person(p)
         self.time = 0.0  # [s]
@@ -79,6 +80,7 @@ class Simulator:
         dt = self.cfg.dt
         for p in self.people.values():
             p.step(dt)
+        self._scene_dirty = True
         self.base.step(dt, self.time, self.scene())
         self._step_tilt(dt)
         self.steps += 1
@@ -96,9 +98,12 @@ class Simulator:
         self.tilt += max(-TILT_SPEED * dt, min(TILT_SPEED * dt, err))
 
     def scene(self):
-        """Static world plus the people's bodies as they are now."""
-        cylinders = [c for p in self.people.values() for c in p.primitives()]
-        return self.world.scene.with_cylinders(cylinders)
+        """Static world plus the people's bodies as they are now (built once per step)."""
+        if self._scene_dirty:
+            cylinders = [c for p in self.people.values() for c in p.primitives()]
+            self._scene = self.world.scene.with_cylinders(cylinders)
+            self._scene_dirty = False
+        return self._scene
 
     # ------------------------------------------------------------------ sensors
     def scan(self):
@@ -110,8 +115,9 @@ class Simulator:
         b = self.base
         return world_pose(b.x, b.y, b.yaw) @ self.robot.pose(frame, {TILT_JOINT: self.tilt})
 
-    def render_camera(self, frame="camera_depth_optical_frame", noise=True):
-        return self.camera.render(self.scene(), self.frame_pose(frame), noise=noise)
+    def render_camera(self, frame="camera_depth_optical_frame", noise=True, color=True):
+        """Depth (H, W) [m] and RGB (H, W, 3) (None unless ``color``) seen from ``frame``."""
+        return self.camera.render(self.scene(), self.frame_pose(frame), noise=noise, color=color)
 
     # ------------------------------------------------------------------ kinect_aux
     def set_tilt_degrees(self, degrees):
@@ -143,8 +149,10 @@ class Simulator:
         """Add or replace a person after checking its path against the world."""
         check_path(person, self.world.scene, source="person")
         self.people[person.id] = person
+        self._scene_dirty = True
 
     def remove_person(self, pid):
         if pid not in self.people:
             raise KeyError(f"no person {pid!r} (known: {', '.join(sorted(self.people)) or 'none'})")
         del self.people[pid]
+        self._scene_dirty = True

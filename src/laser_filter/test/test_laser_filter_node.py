@@ -1,0 +1,60 @@
+"""laser_filter_node against a private master, with the seed's launch file: rules applied
+to a real message, and malformed scans answered with a warning, not a crash."""
+
+import math
+
+import pytest
+
+from florence_harness.processes import roslaunch, wait_for
+
+pytestmark = pytest.mark.ros
+
+
+def scan(ranges, intensities=(), range_max=5.6):
+    from sensor_msgs.msg import LaserScan
+
+    msg = LaserScan(angle_min=-0.5, angle_max=0.5, angle_increment=1.0 / max(len(ranges) - 1, 1),
+                    range_min=0.02, range_max=range_max, ranges=list(ranges), intensities=list(intensities))
+    msg.header.frame_id = "base_laser_link"
+    return msg
+
+
+def test_filters_the_combined_scan_and_survives_bad_scans(ros_master, rospy_node):
+    from sensor_msgs.msg import LaserScan
+
+    proc = roslaunch(ros_master, "laser_filter", "laser_filter.launch")
+    out = []
+    sub = rospy_node.Subscriber("/filtered_scan", LaserScan, out.append)
+    pub = rospy_node.Publisher("/scan_combined", LaserScan, queue_size=10)
+    try:
+        wait_for(lambda: pub.get_num_connections() and sub.get_num_connections(), 30.0, what="laser_filter up")
+        bad = [scan([1.0, 2.0], intensities=[1.0]),  # mismatched intensities: published without them
+               scan([1.0], range_max=math.nan),  # unusable limits: dropped
+               scan([])]  # empty: published empty
+        good = scan([0.1, 1.0, 0.0, -1.0, math.nan, math.inf, 6.0], intensities=range(7))
+        for i, msg in enumerate([*bad, good]):  # the stamp marks each scan (rospy rewrites seq)
+            msg.header.stamp = rospy_node.Time(i + 1)
+
+        def all_answered():
+            for msg in (*bad, good):
+                pub.publish(msg)
+            return any(m.header.stamp == good.header.stamp for m in out)
+
+        wait_for(all_answered, 20.0, interval=0.2, what="the good scan filtered")
+        assert proc.running()
+        by_id = {}
+        for m in out:
+            by_id.setdefault(m.header.stamp.secs, m)
+        clear = 5.6 - 1e-4
+        assert by_id[4].ranges == pytest.approx([clear, 1.0, clear, clear, clear, clear, clear])
+        assert by_id[4].header.frame_id == "base_laser_link"
+        assert list(by_id[4].intensities) == list(range(7))
+        assert list(by_id[1].ranges) == pytest.approx([1.0, 2.0]) and list(by_id[1].intensities) == []
+        assert 2 not in by_id
+        assert list(by_id[3].ranges) == []
+    finally:
+        sub.unregister()
+        pub.unregister()
+        if not proc.running():
+            print(proc.output())
+        proc.stop()
