@@ -1,5 +1,5 @@
-"""`make demo` runs for real: the demo process starts its own master and the description,
-reads the live tf tree and writes a report whose checks passed."""
+"""`make demo` runs for real: the demo process starts its own master and the simulator,
+reads the live tf tree, drives the scripted scenario and writes a report whose checks passed."""
 
 import json
 import subprocess
@@ -22,6 +22,12 @@ def test_demo_writes_report_from_live_tf(tmp_path):
     assert data["frames"]["base_laser_link"]["parent"] == "plate_1_link"
     assert len(data["frames"]) >= 30
     assert not list(out.glob("*.tmp")), "temporary files left behind"
+    assert "scenario: all passed" in report
+    scenario = json.loads((out / "scenario.json").read_text())
+    assert scenario["summary"]["collisions_in_scenario"] == 1
+    assert 5.55 < scenario["steps"][3]["truth"][1] < 6.75, "the robot reached the corridor"
+    assert scenario["summary"]["rates_hz_sim_time"]["/scan"] == pytest.approx(10.0, rel=0.25)
+    assert all(ok for _, ok, _ in scenario["checks"])
 
 
 @pytest.mark.ros

@@ -320,3 +320,58 @@ def test_people_are_seen_by_laser_legs_and_camera_shirt(robot):
     green = (rgb[..., 1] > 100) & (rgb[..., 0] < 50) & (rgb[..., 2] < 50)
     assert green.sum() > 50
     assert np.nanmedian(depth[green]) == pytest.approx(2.0 - 0.18 + 0.087, abs=0.1)
+
+
+def test_person_waits_while_the_robot_is_in_the_way():
+    p = Person("a", path=[(0.0, 0.0), (4.0, 0.0)], speed=1.0, mode="once")
+    robot = (2.0, 0.0, 0.17)
+    for _ in range(400):
+        p.step(DT, keep_clear=robot)
+    assert p.x == pytest.approx(2.0 - 0.17 - 0.20 - 0.15, abs=0.02) and p.vx == 0.0
+    for _ in range(400):  # the robot leaves: the walk goes on
+        p.step(DT, keep_clear=(2.0, 3.0, 0.17))
+    assert p.x == pytest.approx(4.0)
+
+
+def test_sitting_and_standing_bodies():
+    standing = Person("a", x=1.0, y=0.0)
+    sitting = Person("b", x=1.0, y=0.0, posture="sitting")
+    assert max(c.z1 for c in standing.primitives()) == pytest.approx(1.72)
+    assert max(c.z1 for c in sitting.primitives()) == pytest.approx(1.32)
+    legs = [c for c in standing.primitives() if c.z0 == 0.0]
+    assert len(legs) == 2 and all(c.z1 > 0.5 for c in legs), "two legs cross the laser plane"
+    sitting.step(1.0)
+    assert (sitting.x, sitting.y) == (1.0, 0.0) and not sitting.walking
+
+
+def test_outputs_fall_due_at_their_exact_average_rates(robot):
+    from florence_sim.base import BaseConfig
+    from florence_sim.sim import SimConfig, Simulator
+    from florence_sim.world import World
+
+    world = World("w", "w", Scene(room(6.0)), 0.05, ((0, 0), (6, 6)))
+    sim = Simulator(world, robot, BaseConfig(radius=0.17, height=0.94, wheel_separation=0.26), SimConfig(),
+                    start=(3.0, 3.0, 0.0))
+    counts = {}
+    for _ in range(1000):  # 10 s
+        for name in sim.step():
+            counts[name] = counts.get(name, 0) + 1
+    assert sim.time == pytest.approx(10.0)
+    # due at t = 0 (the first step) and then every period up to t = 10 s inclusive
+    assert counts == {"laser": 101, "camera": 151, "odom": 301, "sensor_state": 101, "kinect_aux": 101,
+                      "people": 101, "diagnostics": 11}
+
+
+def test_laser_self_hits_see_the_standoffs_only_when_asked(robot):
+    """The inverted Hokuyo under plate_1 sees the two front standoffs of plate_0 at about +-85 deg."""
+    cyls = robot.vertical_cylinders()
+    mount = robot.pose("base_laser_link")
+    plain = UrgLaser(mount, LaserConfig(noise=0.0), robot_cylinders=cyls)
+    seeing = UrgLaser(mount, LaserConfig(noise=0.0, self_hits=True), robot_cylinders=cyls)
+    assert sorted(c[0] for c in seeing.robot_cylinders) == [f"plate_0_standoff_{i}_link" for i in range(4)]
+    scene = Scene(room(6.0))
+    near = seeing.scan(scene, 3.0, 3.0, 0.3)
+    assert np.all(plain.scan(scene, 3.0, 3.0, 0.3) > 0.5)
+    hits = np.abs(seeing.angles[(near > 0) & (near < 0.3)])
+    assert len(hits) >= 2 and np.all((hits > 1.3) & (hits < 1.571)), np.degrees(hits)
+    assert np.all(near[(near > 0) & (near < 0.3)] > 0.12)

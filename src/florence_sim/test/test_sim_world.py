@@ -168,3 +168,18 @@ def test_navigation_launch_files_default_to_the_shipped_map():
                    "src/florence_bringup/launch/florence_bringup.launch",
                    "src/user_test/launch/florence_user_test.launch"):
         assert "$(find florence_sim)/../../maps/apartment/apartment.yaml" in (root / launch).read_text(), launch
+
+
+def test_generate_map_command_writes_the_files_and_reports_bad_worlds(tmp_path, capsys):
+    assert mapgen.main([str(APARTMENT), "--out-dir", str(tmp_path), "--laser-height", str(LASER_HEIGHT)]) == 0
+    assert (tmp_path / "apartment.pgm").read_bytes() == (MAPS / "apartment" / "apartment.pgm").read_bytes()
+    assert not list(tmp_path.glob(".tmp-*")), "temporary files left behind"
+    assert mapgen.main([str(tmp_path / "missing.world.yaml")]) == 2
+    assert "missing.world.yaml: file: cannot read" in capsys.readouterr().err
+
+
+def test_sitting_person_cannot_walk(apartment, tmp_path):
+    path = tmp_path / "people.yaml"
+    path.write_text("people:\n  - {id: a, posture: sitting, path: [[1.2, 3.0], [1.2, 4.0]]}\n")
+    with pytest.raises(WorldError, match=r"people\[0\]\.posture: a sitting person cannot walk"):
+        load_people(path, apartment.scene)

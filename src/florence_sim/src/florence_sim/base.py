@@ -69,7 +69,6 @@ class DiffDriveBase:
         self.rng = rng or np.random.default_rng(0)
         self.set_pose(x, y, yaw, reset_odom=True)
         self.v = self.w = 0.0  # actual speeds [m/s], [rad/s]
-        self.cmd_v = self.cmd_w = 0.0
         self.cmd_time = -math.inf  # [s] sim time of the last command
         self.bumps = 0
         self.in_contact = False
@@ -86,6 +85,7 @@ class DiffDriveBase:
             self.odom_origin = (self.x, self.y, self.yaw)
             self.odom_v = self.odom_w = 0.0
         self.v = self.w = 0.0
+        self.cmd_v = self.cmd_w = 0.0  # a carried robot forgets its last command
 
     def command(self, v, w, now):
         """Accept a velocity command at sim time ``now`` [s]; False (ignored) if not finite."""

@@ -21,7 +21,7 @@ import tempfile
 import numpy as np
 import yaml
 
-from florence_sim.world import load_world
+from florence_sim.world import WorldError, load_world
 
 OCCUPIED, FREE, UNKNOWN = 0, 254, 205
 
@@ -125,7 +125,11 @@ def main(argv=None):
     parser.add_argument("--name", help="map base name (default: the world's name)")
     parser.add_argument("--laser-height", type=float, help="[m] slice height (default: from the robot description)")
     args = parser.parse_args(argv)
-    world = load_world(args.world)
+    try:
+        world = load_world(args.world)
+    except WorldError as exc:
+        print(f"generate_map: {exc}", file=sys.stderr)
+        return 2
     height = args.laser_height if args.laser_height is not None else laser_height_from_description()
     if not math.isfinite(height) or height <= 0:
         parser.error(f"laser height must be > 0, got {height}")

@@ -13,6 +13,8 @@ ROS Parameters:
     ~min_ang, ~max_ang (float, -pi/2, pi/2, rad): requested scan span, as hokuyo_node's
         parameters (clipped to the URG-04LX's +-2.0862 rad, rounded to its steps)
     ~laser_noise (float, 0.01, m): range noise std below 1 m (1 % of the range beyond)
+    ~laser_self_hits (bool, false): the scan also sees the robot's own standoffs at laser height,
+        as the real inverted Hokuyo does (laser_filter drops such readings)
     ~laser_rate (float, 10, Hz), ~camera_rate (float, 15, Hz), ~odom_rate (float, 30, Hz)
     ~camera_width, ~camera_height (int, 160, 120, px): Kinect image size (up to 640x480)
     ~depth_noise (float, 0.0012, 1/m): depth noise std = depth_noise * depth^2
@@ -37,7 +39,8 @@ ROS Publishers:
     base_pose_ground_truth (nav_msgs/Odometry): true pose, frame map, child base_footprint
     people_ground_truth (florence_sim/People), ~people_markers (visualization_msgs/MarkerArray)
     ~map (nav_msgs/OccupancyGrid, latched): the ground-truth map of the world at laser height
-    collisions (std_msgs/UInt32): number of bumper contacts so far
+    collisions (std_msgs/UInt32, latched): number of bumper contacts so far
+    (a message is built only when its topic has subscribers; /clock and tf always)
     tf map->odom when ~fake_localization
 
 ROS Subscribers:
@@ -59,6 +62,8 @@ import numpy as np
 
 NAME = "florence_sim"
 TILT_JOINT = "camera_tilt_joint"
+# odometry covariance (x, y, z, roll, pitch, yaw) [m^2, rad^2]: planar, z and tilts unknown
+ODOM_COVARIANCE = np.diag([1e-3, 1e-3, 1e6, 1e6, 1e6, 1e-3]).ravel().tolist()
 
 
 def _default_world():
@@ -110,7 +115,7 @@ class SimNode:
         self.fake_localization = bool(p("~fake_localization", False))
         seed = int(p("~seed", 0))
         laser = LaserConfig(min_ang=float(p("~min_ang", -math.pi / 2)), max_ang=float(p("~max_ang", math.pi / 2)),
-                            noise=float(p("~laser_noise", 0.01)))
+                            noise=float(p("~laser_noise", 0.01)), self_hits=bool(p("~laser_self_hits", False)))
         camera = CameraConfig(width=int(p("~camera_width", 160)), height=int(p("~camera_height", 120)),
                               depth_noise=float(p("~depth_noise", 0.0012)))
         rates = Rates(laser=float(p("~laser_rate", 10.0)), camera=float(p("~camera_rate", 15.0)),
@@ -173,6 +178,8 @@ class SimNode:
         self.pub_collisions = P("collisions", UInt32, queue_size=10, latch=True)
         self.tf = tf2_ros.TransformBroadcaster()
         self.msgs = _Messages(self.sim)
+        self.pub_collisions.publish(0)
+        self.published_collisions = 0
 
         self.pub_map.publish(self.msgs.ground_truth_map(laser_height=self.sim.laser.mount[2, 3]))
 
@@ -266,7 +273,10 @@ class SimNode:
 
     # ------------------------------------------------------------------ main loop
     def spin(self):
+        from rosgraph_msgs.msg import Clock
+
         rospy = self.rospy
+        self.pub_clock.publish(Clock(rospy.Time.from_sec(self.sim.time)))  # time is defined even while paused
         ref_wall, ref_sim = time.monotonic(), self.sim.time
         window_wall, window_sim = ref_wall, ref_sim
         while not rospy.is_shutdown():
@@ -291,10 +301,16 @@ class SimNode:
                 elif delay < -0.25:  # fell behind (loaded machine): do not try to catch up in a burst
                     ref_wall, ref_sim = now, self.sim.time
 
+    @staticmethod
+    def _send(pub, build):
+        """Build and publish a message only when somebody listens (rospy messages cost CPU)."""
+        if pub.get_num_connections():
+            pub.publish(build())
+
     def _publish(self, due):
         from rosgraph_msgs.msg import Clock
 
-        sim, m = self.sim, self.msgs
+        sim, m, send = self.sim, self.msgs, self._send
         stamp = self.rospy.Time.from_sec(sim.time)
         self.pub_clock.publish(Clock(stamp))
         if "odom" in due:
@@ -303,35 +319,37 @@ class SimNode:
             if self.fake_localization:
                 transforms.append(m.map_to_odom(stamp))
             self.tf.sendTransform(transforms)
-            self.pub_odom.publish(odom)
-            self.pub_imu.publish(m.gyro(stamp))
-            self.pub_truth.publish(m.ground_truth(stamp))
+            send(self.pub_odom, lambda: odom)
+            send(self.pub_imu, lambda: m.gyro(stamp))
+            send(self.pub_truth, lambda: m.ground_truth(stamp))
         if "laser" in due:
-            self.pub_scan.publish(m.scan(stamp, sim.scan()))
+            send(self.pub_scan, lambda: m.scan(stamp, sim.scan()))
         if "camera" in due:
             self._publish_camera(stamp)
         if "sensor_state" in due:
-            self.pub_state.publish(m.sensor_state(stamp))
-            self.pub_collisions.publish(sim.base.collisions)
+            state = m.sensor_state(stamp)  # built anyway: it resets the packet's distance and angle
+            send(self.pub_state, lambda: state)
+            if sim.base.collisions != self.published_collisions:  # latched: published on change
+                self.pub_collisions.publish(sim.base.collisions)
+                self.published_collisions = sim.base.collisions
         if "kinect_aux" in due:
-            self.pub_tilt.publish(math.degrees(sim.tilt))
-            self.pub_tilt_status.publish(sim.tilt_status)
-            self.pub_accel.publish(m.accelerometer(stamp))
-            self.pub_joints.publish(m.joint_states(stamp))
+            send(self.pub_tilt, lambda: math.degrees(sim.tilt))
+            send(self.pub_tilt_status, lambda: sim.tilt_status)
+            send(self.pub_accel, lambda: m.accelerometer(stamp))
+            send(self.pub_joints, lambda: m.joint_states(stamp))
         if "people" in due:
-            self.pub_people.publish(m.people(stamp))
-            if self.pub_markers.get_num_connections():
-                self.pub_markers.publish(m.markers(stamp))
+            send(self.pub_people, lambda: m.people(stamp))
+            send(self.pub_markers, lambda: m.markers(stamp))
         if "diagnostics" in due:
-            self.pub_diag.publish(m.diagnostics(stamp, self.achieved_rtf, self.rtf))
+            send(self.pub_diag, lambda: m.diagnostics(stamp, self.achieved_rtf, self.rtf))
 
     def _publish_camera(self, stamp):
-        m = self.msgs
+        m, send = self.msgs, self._send
         depth_wanted = self.render_always or self.pub_depth.get_num_connections() > 0
         rgb_wanted = self.render_always or (self.pub_rgb.get_num_connections() + self.pub_points.get_num_connections()
                                             ) > 0
-        self.pub_depth_info.publish(m.camera_info(stamp, "camera_depth_optical_frame"))
-        self.pub_rgb_info.publish(m.camera_info(stamp, "camera_rgb_optical_frame"))
+        send(self.pub_depth_info, lambda: m.camera_info(stamp, "camera_depth_optical_frame"))
+        send(self.pub_rgb_info, lambda: m.camera_info(stamp, "camera_rgb_optical_frame"))
         if depth_wanted:
             depth, _ = self.sim.render_camera("camera_depth_optical_frame", color=False)
             self.pub_depth.publish(m.depth_image(stamp, depth))
@@ -355,61 +373,51 @@ class _Messages:
 
     def __init__(self, sim):
         self.sim = sim
-        self.seq = 0
 
-    def odometry(self, stamp):
-        from geometry_msgs.msg import TransformStamped
+    @staticmethod
+    def _odometry_msg(stamp, frame, pose, v, w, covariance=None):
+        """nav_msgs/Odometry of base_footprint at ``pose`` (x, y, yaw) in ``frame``."""
         from nav_msgs.msg import Odometry
 
-        b = self.sim.base
-        odom = Odometry()
-        odom.header.stamp = stamp
-        odom.header.frame_id = "odom"
-        odom.child_frame_id = "base_footprint"
-        odom.pose.pose.position.x, odom.pose.pose.position.y = b.ox, b.oy
-        odom.pose.pose.orientation = _quaternion(b.oyaw)
-        odom.twist.twist.linear.x = b.odom_v
-        odom.twist.twist.angular.z = b.odom_w
-        cov = np.diag([1e-3, 1e-3, 1e6, 1e6, 1e6, 1e-3]).ravel().tolist()
-        odom.pose.covariance = cov
-        odom.twist.covariance = cov
-        t = TransformStamped()
-        t.header = odom.header
-        t.child_frame_id = "base_footprint"
-        t.transform.translation.x, t.transform.translation.y = b.ox, b.oy
-        t.transform.rotation = odom.pose.pose.orientation
-        return odom, t
-
-    def map_to_odom(self, stamp):
-        from geometry_msgs.msg import TransformStamped
-
-        b = self.sim.base
-        # map->odom = truth * odom^-1
-        dyaw = b.yaw - b.oyaw
-        c, s = math.cos(dyaw), math.sin(dyaw)
-        tx = b.x - (c * b.ox - s * b.oy)
-        ty = b.y - (s * b.ox + c * b.oy)
-        t = TransformStamped()
-        t.header.stamp = stamp
-        t.header.frame_id = "map"
-        t.child_frame_id = "odom"
-        t.transform.translation.x, t.transform.translation.y = tx, ty
-        t.transform.rotation = _quaternion(dyaw)
-        return t
-
-    def ground_truth(self, stamp):
-        from nav_msgs.msg import Odometry
-
-        b = self.sim.base
         msg = Odometry()
         msg.header.stamp = stamp
-        msg.header.frame_id = "map"
+        msg.header.frame_id = frame
         msg.child_frame_id = "base_footprint"
-        msg.pose.pose.position.x, msg.pose.pose.position.y = b.x, b.y
-        msg.pose.pose.orientation = _quaternion(b.yaw)
-        msg.twist.twist.linear.x = b.v
-        msg.twist.twist.angular.z = b.w
+        msg.pose.pose.position.x, msg.pose.pose.position.y = pose[0], pose[1]
+        msg.pose.pose.orientation = _quaternion(pose[2])
+        msg.twist.twist.linear.x, msg.twist.twist.angular.z = v, w
+        if covariance is not None:
+            msg.pose.covariance = msg.twist.covariance = covariance
         return msg
+
+    @staticmethod
+    def _transform(stamp, parent, child, x, y, yaw):
+        from geometry_msgs.msg import TransformStamped
+
+        t = TransformStamped()
+        t.header.stamp = stamp
+        t.header.frame_id = parent
+        t.child_frame_id = child
+        t.transform.translation.x, t.transform.translation.y = x, y
+        t.transform.rotation = _quaternion(yaw)
+        return t
+
+    def odometry(self, stamp):
+        """``odom`` message and the tf odom -> base_footprint."""
+        b = self.sim.base
+        odom = self._odometry_msg(stamp, "odom", (b.ox, b.oy, b.oyaw), b.odom_v, b.odom_w, ODOM_COVARIANCE)
+        return odom, self._transform(stamp, "odom", "base_footprint", b.ox, b.oy, b.oyaw)
+
+    def map_to_odom(self, stamp):
+        """tf map -> odom = truth * odom^-1 (fake localization)."""
+        b = self.sim.base
+        dyaw = b.yaw - b.oyaw
+        c, s = math.cos(dyaw), math.sin(dyaw)
+        return self._transform(stamp, "map", "odom", b.x - (c * b.ox - s * b.oy), b.y - (s * b.ox + c * b.oy), dyaw)
+
+    def ground_truth(self, stamp):
+        b = self.sim.base
+        return self._odometry_msg(stamp, "map", (b.x, b.y, b.yaw), b.v, b.w)
 
     def gyro(self, stamp):
         from sensor_msgs.msg import Imu

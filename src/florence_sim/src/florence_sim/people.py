@@ -1,7 +1,8 @@
 """Simulated people: legs at laser height, torso and head up to about 1.7 m (no ROS).
 
 A person stands, sits, or walks along waypoints at a set speed (modes ``loop``,
-``back_and_forth``, ``once``), pausing at each waypoint. The body is made of
+``back_and_forth``, ``once``), pausing at each waypoint, and waits while the robot
+stands in the way. The body is made of
 cylinders, so the laser sees two legs and the Kinect the shirt colour. Paths
 are checked against the world: one through a wall or furniture is refused.
 """
@@ -22,6 +23,7 @@ HEIGHT = 1.72  # [m] standing height
 SKIN = (0.87, 0.72, 0.60)
 TROUSERS = (0.20, 0.20, 0.25)
 STRIDE = 1.2  # [m] distance for one full leg cycle
+GAP = 0.15  # [m] a walking person keeps this gap to the robot (and waits if it is in the way)
 
 
 @dataclass
@@ -58,10 +60,21 @@ class Person:
     def walking(self):
         return len(self.path) > 1 and not self.finished
 
-    def step(self, dt):
-        """Advance the walk by ``dt`` [s]."""
+    def step(self, dt, keep_clear=None):
+        """Advance the walk by ``dt`` [s]. ``keep_clear`` = (x, y, radius) [m] of something
+        (the robot) the person does not walk into: they wait while it is in the way."""
         self.vx = self.vy = 0.0
         if not self.walking:
+            return
+        if keep_clear is not None:
+            saved = (self.x, self.y, self.yaw, self.target, self.direction, self.wait, self.phase, self.finished)
+            before = math.hypot(self.x - keep_clear[0], self.y - keep_clear[1])
+            self.step(dt)
+            after = math.hypot(self.x - keep_clear[0], self.y - keep_clear[1])
+            if after < keep_clear[2] + RADIUS + GAP and after < before:
+                (self.x, self.y, self.yaw, self.target, self.direction, self.wait, self.phase,
+                 self.finished) = saved
+                self.vx = self.vy = 0.0
             return
         if self.wait > 0:
             self.wait = max(0.0, self.wait - dt)

@@ -100,6 +100,25 @@ class RobotModel:
                     return float(cyl.get("radius"))
         raise KeyError(f"link {link!r} has no cylinder geometry")
 
+    def vertical_cylinders(self):
+        """Upright cylinders of the robot's visuals (standoffs ...) as (link, x, y, radius, z0, z1)
+        in base_footprint [m]."""
+        out = []
+        for link_el in self._geometry.iter("link"):
+            name = link_el.get("name")
+            for vis in link_el.iter("visual"):
+                cyl = vis.find("geometry/cylinder")
+                if cyl is None:
+                    continue
+                xyz, rpy = _xyz_rpy(vis.find("origin"))
+                pose = self.pose(name) @ transform(xyz, rpy)
+                if abs(abs(pose[2, 2]) - 1.0) > 1e-6:  # lying (wheels)
+                    continue
+                half = float(cyl.get("length")) / 2
+                out.append((name, pose[0, 3], pose[1, 3], float(cyl.get("radius")), pose[2, 3] - half,
+                            pose[2, 3] + half))
+        return out
+
     def height(self):
         """Top of the robot [m] above the floor: the highest point of any link origin or box."""
         top = 0.0

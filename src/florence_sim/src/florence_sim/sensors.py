@@ -12,6 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from florence_sim.geometry import Cylinder
+
 # Hokuyo URG-04LX (datasheet; hokuyo_node): 1024 steps a turn, steps 44..725 usable with
 # the front at step 384, i.e. +-340 steps = +-2.0862 rad; 20 mm .. 5.6 m; 100 ms a scan.
 URG_STEPS_PER_TURN = 1024
@@ -37,14 +39,19 @@ class LaserConfig:
     max_ang: float = math.pi / 2  # [rad] requested last angle (hokuyo_node ~max_ang)
     noise: float = 0.01  # [m] range noise std below 1 m; 1 % of the range beyond (URG: +-10 mm / 1 %)
     frame_id: str = "base_laser_link"
+    self_hits: bool = False  # the beams also hit the robot's own standoffs, as on the real robot
 
 
 class UrgLaser:
     """Scans in the laser's own frame, counter-clockwise about its own z axis, as the URG does."""
 
-    def __init__(self, mount, config=None, rng=None):
+    def __init__(self, mount, config=None, rng=None, robot_cylinders=()):
+        """``robot_cylinders``: (name, x, y, radius, z0, z1) of the robot in base_footprint [m];
+        with ``self_hits`` those crossing the scan plane are seen (the laser's own parts are not)."""
         self.cfg = config or LaserConfig()
         self.mount = np.asarray(mount, dtype=float)
+        h = self.mount[2, 3]
+        self.robot_cylinders = [c for c in robot_cylinders if c[4] <= h <= c[5] and not c[0].startswith("base_laser")]
         if abs(abs(self.mount[2, 2]) - 1.0) > 1e-6:
             raise ValueError("the laser's z axis must be vertical (up or down) for a 2D scan")
         self.rng = rng or np.random.default_rng(1)
@@ -69,6 +76,10 @@ class UrgLaser:
         """Ranges [m] (float32) of one scan from robot pose (x, y, yaw); no echo -> 0.0."""
         pose = world_pose(x, y, yaw) @ self.mount
         dirs = self._dirs_base[:, :2] @ world_pose(0, 0, yaw)[:2, :2].T
+        if self.cfg.self_hits and self.robot_cylinders:
+            c, s = math.cos(yaw), math.sin(yaw)
+            scene = scene.with_cylinders([Cylinder(f"robot/{n}", x + c * cx - s * cy, y + s * cx + c * cy, r, z0, z1)
+                                          for n, cx, cy, r, z0, z1 in self.robot_cylinders])
         ranges, _ = scene.cast_2d(pose[:2, 3], dirs, pose[2, 3], self.range_max)
         hit = np.isfinite(ranges)
         if self.cfg.noise:

@@ -62,7 +62,8 @@ class Simulator:
         rng = np.random.default_rng(self.cfg.seed)
         self.base = DiffDriveBase(base_config, *start, rng=np.random.default_rng(rng.integers(1 << 31)))
         self.laser = UrgLaser(robot.pose(self.cfg.laser.frame_id), self.cfg.laser,
-                              rng=np.random.default_rng(rng.integers(1 << 31)))
+                              rng=np.random.default_rng(rng.integers(1 << 31)),
+                              robot_cylinders=robot.vertical_cylinders())
         self.camera = DepthCamera(self.cfg.camera, rng=np.random.default_rng(rng.integers(1 << 31)))
         self.people = {}
         self._scene, self._scene_dirty = None, True
@@ -78,8 +79,9 @@ class Simulator:
     def step(self):
         """Advance one physics step; return the list of outputs due now."""
         dt = self.cfg.dt
+        robot = (self.base.x, self.base.y, self.base.cfg.radius)
         for p in self.people.values():
-            p.step(dt)
+            p.step(dt, keep_clear=robot)
         self._scene_dirty = True
         self.base.step(dt, self.time, self.scene())
         self._step_tilt(dt)
@@ -90,7 +92,10 @@ class Simulator:
             if self.time + 1e-9 >= self._next_due[name]:
                 due.append(name)
                 period = 1.0 / rate
-                self._next_due[name] = max(self._next_due[name] + period, self.time + period - dt / 2)
+                # keep the average rate exact (15 Hz on a 10 ms step: 7, 7, 6 steps apart ...)
+                self._next_due[name] += period
+                if self._next_due[name] <= self.time:  # the rate was changed or time jumped
+                    self._next_due[name] = self.time + period
         return due
 
     def _step_tilt(self, dt):
