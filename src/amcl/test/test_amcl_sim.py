@@ -17,13 +17,15 @@ SHORT_TOUR = [(1.2, 4.6), (2.45, 4.9), (2.45, 5.9)]  # living room -> corridor d
 
 
 @pytest.fixture
-def amcl_in_sim(rospy_node, ros_master, launch, tf_buffer):
+def amcl_in_sim(rospy_node, ros_master, launch, tf_buffer, tmp_path):
     import rosgraph
 
     master = rosgraph.Master("/pytest")
     had_sim_time = master.hasParam("/use_sim_time")
     map_yaml = str(workspace.root() / "maps" / "apartment" / "apartment.yaml")
-    sim = launch("florence_sim", "florence_sim.launch", "people:=", "real_time_factor:=2.0", "seed:=3",
+    nobody = tmp_path / "nobody.yaml"
+    nobody.write_text("people: []\n")
+    sim = launch("florence_sim", "florence_sim.launch", f"people:={nobody}", "real_time_factor:=2.0", "seed:=3",
                  f"x:={START[0]}", f"y:={START[1]}", f"yaw:={START[2]}")
     # One roslaunch at a time: two starting together race for the master's run_id.
     wait_for(lambda: rosgraph.Master("/pytest").hasParam("/run_id") or not sim.running(), 60, what="florence_sim")

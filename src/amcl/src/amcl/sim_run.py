@@ -28,6 +28,7 @@ class TourRecorder:
         self.truth_t, self.truth = [], []
         self.est_t, self.est, self.cov = [], [], []
         self.durations = []
+        self.reached = 0  # waypoints reached by the last drive()
         self.cmd = rospy.Publisher(ns + "cmd_vel", Twist, queue_size=1)
         self.subs = [
             rospy.Subscriber(ns + "base_pose_ground_truth", Odometry, self._on_truth, queue_size=50),
@@ -79,7 +80,7 @@ class TourRecorder:
         """
         rate = rospy.Rate(rate_hz)
         start = rospy.Time.now()
-        index = 0
+        index = self.reached = 0
         try:
             while index < len(waypoints) and not rospy.is_shutdown():
                 if (rospy.Time.now() - start).to_sec() > timeout:
@@ -93,6 +94,7 @@ class TourRecorder:
                 v, w, reached = follow(pose, waypoints[index], v_max=v_max)
                 if reached:
                     index += 1
+                    self.reached = index
                     continue
                 cmd = Twist()
                 cmd.linear.x, cmd.angular.z = v, w
