@@ -109,7 +109,8 @@ def setup(rospy_node, ros_master, tmp_path, tf_buffer):
               "min_particles": 300, "max_particles": 5000, "laser_max_beams": 60, "odom_model_type": "diff-corrected",
               "odom_alpha1": 0.05, "odom_alpha2": 0.05, "odom_alpha3": 0.05, "odom_alpha4": 0.05,
               "update_min_d": 0.05, "update_min_a": 0.1, "resample_interval": 1, "transform_tolerance": 0.5,
-              "use_map_topic": True}
+              "use_map_topic": True, "recovery_alpha_slow": 0.001, "recovery_alpha_fast": 0.1,
+              "off_free_weight": 0.05}
     argv = ["rosrun", "amcl", "amcl", "__ns:=amcl_test", *(f"_{k}:={v}" for k, v in params.items())]
     procs.append(ManagedProcess(argv, env=env))
     yield robot, procs
@@ -209,7 +210,7 @@ def test_amcl_tracks_resets_and_relocalizes(setup, tf_buffer):
         wait_for(lambda: len(latest["cloud"].poses) > 1000, 20, what="particles spread over the map")
         with robot.lock:
             robot.velocity = (0.2, 0.3)
-        wait_for(lambda: converged(0.15, 0.15), 60, what="global localization to converge")
+        wait_for(lambda: converged(0.15, 0.15), 90, what="global localization to converge")
     except Exception:
         print("last error", error(), robot.true)
         raise

@@ -14,7 +14,8 @@ ROS Parameters (ROS amcl names and defaults):
     ~recovery_alpha_fast (double, 0.0): fast average decay.
     ~initial_pose_x, ~initial_pose_y (double, 0.0, m), ~initial_pose_a (double, 0.0, rad): initial mean.
     ~initial_cov_xx, ~initial_cov_yy (double, 0.25, m^2), ~initial_cov_aa (double, (pi/12)^2, rad^2).
-    ~gui_publish_rate (double, -1.0, Hz): most particlecloud messages per second (-1: every update).
+    ~gui_publish_rate (double, -1.0, Hz): accepted and unused, as in ROS noetic amcl (particlecloud
+        goes out with every filter update).
     ~save_pose_rate (double, 0.5, Hz): how often the estimate is stored in ~initial_pose_* and
         ~initial_cov_* (-1 disables).
     ~use_map_topic (bool, false): take the map from the map topic instead of the static_map service.
@@ -125,8 +126,7 @@ class AmclNode:
                                  float(g("~initial_cov_aa", (math.pi / 12.0) ** 2))])
         if not (np.isfinite(self.init_mean).all() and np.isfinite(self.init_cov).all() and (self.init_cov >= 0).all()):
             raise ValueError("initial_pose_* must be finite and initial_cov_* finite and >= 0")
-        gui_rate = float(g("~gui_publish_rate", -1.0))
-        self.gui_period = 1.0 / gui_rate if gui_rate > 0 else 0.0
+        g("~gui_publish_rate", -1.0)  # read like ROS noetic, which declares it but publishes every update
         save_rate = float(g("~save_pose_rate", 0.5))
         self.save_period = rospy.Duration(1.0 / save_rate) if save_rate > 0 else None
         self.use_map_topic = bool(g("~use_map_topic", False))
@@ -141,7 +141,6 @@ class AmclNode:
         self.have_map = False
         self.laser_geometry = {}  # laser frame -> (laser_xy, rotation quaternion)
         self.last_map_to_odom = None
-        self.last_cloud_wall = 0.0
         self.last_save = None
         self.force_publish = True  # publish the first estimate after a (re)initialisation
 
@@ -312,10 +311,6 @@ class AmclNode:
         self.pose_pub.publish(msg)
 
     def publish_cloud(self, stamp):
-        now = time.monotonic()
-        if self.gui_period and now - self.last_cloud_wall < self.gui_period:
-            return
-        self.last_cloud_wall = now
         msg = PoseArray()
         msg.header.stamp, msg.header.frame_id = stamp, self.global_frame
         for x, y, a in self.localizer.pf.particles:
