@@ -21,7 +21,7 @@ URG_MAX_STEP = 340  # [steps] from the front, both sides
 URG_RANGE_MIN = 0.02  # [m]
 URG_RANGE_MAX = 5.6  # [m]
 URG_SCAN_TIME = 0.1  # [s]
-URG_NO_RETURN = 0.0  # [m] hokuyo_node publishes the device's error code (0 for no echo) / 1000
+URG_NO_RETURN = float("inf")  # [m] our hokuyo_node publishes the URG's error codes as +inf (REP 117)
 
 
 def world_pose(x, y, yaw):
@@ -73,7 +73,7 @@ class UrgLaser:
         self.range_min, self.range_max = URG_RANGE_MIN, URG_RANGE_MAX
 
     def scan(self, scene, x, y, yaw):
-        """Ranges [m] (float32) of one scan from robot pose (x, y, yaw); no echo -> 0.0."""
+        """Ranges [m] (float32) of one scan from robot pose (x, y, yaw); no echo -> +inf."""
         pose = world_pose(x, y, yaw) @ self.mount
         dirs = self._dirs_base[:, :2] @ world_pose(0, 0, yaw)[:2, :2].T
         if self.cfg.self_hits and self.robot_cylinders:
