@@ -26,6 +26,8 @@ import threading
 import time
 import xml.etree.ElementTree as ET
 
+from map_server.mapfile import atomic_write
+
 from florence_bringup.tf_report import FrameLink, check_conventions, render_tree
 from florence_harness.processes import HarnessError, ManagedProcess, RosMaster, roslaunch, wait_for
 
@@ -75,13 +77,6 @@ def read_tf_tree(rospy, links, timeout):
         )
     del listener
     return frames
-
-
-def _write_atomically(path, text):
-    tmp = path + ".tmp"
-    with open(tmp, "w") as f:
-        f.write(text)
-    os.replace(tmp, path)
 
 
 def _yaw(q):
@@ -385,16 +380,16 @@ def write_report(out_dir, frames, checks, links, master_uri, rows=None, summary=
         "",
     ]
     report = "\n".join(lines)
-    _write_atomically(os.path.join(out_dir, "report.md"), report)
+    atomic_write(os.path.join(out_dir, "report.md"), report.encode())
     data = {
         child: {"parent": link.parent, "translation": list(link.translation), "rotation_xyzw": list(link.rotation)}
         for child, link in frames.items()
     }
-    _write_atomically(os.path.join(out_dir, "frames.json"),
-                      json.dumps({"root": ROOT_FRAME, "frames": data, "checks": checks}, indent=2))
+    atomic_write(os.path.join(out_dir, "frames.json"),
+                 json.dumps({"root": ROOT_FRAME, "frames": data, "checks": checks}, indent=2).encode())
     if rows:
-        _write_atomically(os.path.join(out_dir, "scenario.json"),
-                          json.dumps({"steps": rows, "summary": summary, "checks": list(scenario_checks)}, indent=2))
+        scenario = {"steps": rows, "summary": summary, "checks": list(scenario_checks)}
+        atomic_write(os.path.join(out_dir, "scenario.json"), json.dumps(scenario, indent=2).encode())
     return report, passed and scenario_ok
 
 

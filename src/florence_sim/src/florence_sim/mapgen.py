@@ -16,10 +16,10 @@ import argparse
 import math
 import os
 import sys
-import tempfile
 
 import numpy as np
 import yaml
+from map_server.mapfile import atomic_write
 
 from florence_sim.world import WorldError, load_world
 
@@ -97,20 +97,6 @@ def generate(world, laser_height, name):
     }
 
 
-def write_atomically(path, data):
-    directory = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(dir=directory, prefix=".tmp-")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-
-
 def laser_height_from_description():
     """Height [m] of base_laser_link above the floor, from the robot description."""
     from florence_sim.robot_model import RobotModel
@@ -135,7 +121,7 @@ def main(argv=None):
         parser.error(f"laser height must be > 0, got {height}")
     out_dir = args.out_dir or os.path.dirname(world.path)
     for fname, data in generate(world, height, args.name or world.name).items():
-        write_atomically(os.path.join(out_dir, fname), data)
+        atomic_write(os.path.join(out_dir, fname), data)
         print(f"wrote {os.path.join(out_dir, fname)}")
     return 0
 
