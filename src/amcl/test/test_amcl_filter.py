@@ -103,6 +103,29 @@ def test_augmented_mcl_injects_random_poses_after_a_likelihood_drop():
     assert pf.w_slow == 0.0 and pf.w_fast == 0.0  # reset after injecting, like ROS
 
 
+@pytest.mark.parametrize(("mean_likelihood", "injects"), [
+    (False, False),  # ROS: w_avg = sum(w p) / N; 10x fewer particles inflate it 10x: no injection
+    (True, True),    # Florence option: w_avg = sum(w p), the mean likelihood, drops with the fit
+])
+def test_recovery_after_kld_shrinks_the_set(mean_likelihood, injects):
+    # Regression (global localization in the apartment): the averages are seeded by the spread set
+    # (many particles, poor fit); KLD then shrinks the set onto a wrong pose whose fit is even worse.
+    # With ROS's w_avg the smaller count hides the drop and no random pose is ever drawn.
+    data = np.zeros((40, 40), dtype=np.int8)
+    omap = OccupancyMap(data, 0.1, (10.0, 10.0))
+    pf = make_filter(recovery_alpha_slow=0.001, recovery_alpha_fast=0.1, max_particles=5000,
+                     recovery_mean_likelihood=mean_likelihood)
+    pf.init_gaussian([0, 0, 0], np.diag([1.0, 1.0, 1.0]))
+    for _ in range(3):
+        pf.update_sensor(np.full(len(pf), 3.0))  # spread set: mean likelihood 3
+    pf.particles, pf.weights = pf.particles[:500], np.full(500, 1.0 / 500)  # KLD kept 500
+    for _ in range(30):
+        pf.update_sensor(np.full(len(pf), 1.05))  # a wrong pose: hardly a beam fits
+    assert (pf.random_fraction() > 0.5) == injects
+    pf.resample(omap)
+    assert (np.mean(pf.particles[:, 0] > 5.0) > 0.3) == injects
+
+
 def test_without_recovery_alphas_nothing_is_injected():
     pf = make_filter()
     pf.init_gaussian([0, 0, 0], np.diag([0.01, 0.01, 0.01]))

@@ -12,6 +12,9 @@ ROS Parameters (ROS amcl names and defaults):
     ~transform_tolerance (double, 0.1, s): map->odom is post-dated by this much.
     ~recovery_alpha_slow (double, 0.0): slow average decay (0 disables random poses).
     ~recovery_alpha_fast (double, 0.0): fast average decay.
+    ~recovery_mean_likelihood (bool, false): Florence addition: the recovery averages follow the set's
+        mean sensor likelihood (Probabilistic Robotics) instead of ROS's mean divided by the particle count,
+        which KLD-sampling's shrinking set inflates so that random poses are never injected (false: ROS).
     ~initial_pose_x, ~initial_pose_y (double, 0.0, m), ~initial_pose_a (double, 0.0, rad): initial mean.
     ~initial_cov_xx, ~initial_cov_yy (double, 0.25, m^2), ~initial_cov_aa (double, (pi/12)^2, rad^2).
     ~gui_publish_rate (double, -1.0, Hz): accepted and unused, as in ROS noetic amcl (particlecloud
@@ -93,7 +96,8 @@ def read_config():
         recovery_alpha_slow=float(g("~recovery_alpha_slow", 0.0)),
         recovery_alpha_fast=float(g("~recovery_alpha_fast", 0.0)),
         resample_interval=int(g("~resample_interval", 2)),
-        selective_resampling=bool(g("~selective_resampling", False)))
+        selective_resampling=bool(g("~selective_resampling", False)),
+        recovery_mean_likelihood=bool(g("~recovery_mean_likelihood", False)))
     laser = LaserParams(
         z_hit=float(g("~laser_z_hit", 0.95)), z_short=float(g("~laser_z_short", 0.1)),
         z_max=float(g("~laser_z_max", 0.05)), z_rand=float(g("~laser_z_rand", 0.05)),

@@ -42,6 +42,9 @@ class FilterParams:
     recovery_alpha_fast: float = 0.0
     resample_interval: int = 2
     selective_resampling: bool = False
+    # Florence addition: Augmented MCL's w_avg as the set's mean likelihood sum(w p) (Probabilistic
+    # Robotics table 8.3) instead of ROS's sum(w p) / N, which scales with 1/N (False: ROS).
+    recovery_mean_likelihood: bool = False
 
     def validate(self):
         """Raise ValueError naming the parameter that is out of range."""
@@ -197,8 +200,8 @@ class ParticleFilter:
             return
         self.weights = raw / total
         self.n_effective = 1.0 / float(np.sum(self.weights**2))
-        w_avg = total / len(self)
         p = self.params
+        w_avg = total if p.recovery_mean_likelihood else total / len(self)
         self.w_slow = w_avg if self.w_slow == 0.0 else self.w_slow + p.recovery_alpha_slow * (w_avg - self.w_slow)
         self.w_fast = w_avg if self.w_fast == 0.0 else self.w_fast + p.recovery_alpha_fast * (w_avg - self.w_fast)
 
