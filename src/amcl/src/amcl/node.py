@@ -211,6 +211,7 @@ class AmclNode:
             try:
                 self.localizer.global_localization()
                 self.force_publish = True
+                self.publish_cloud(rospy.Time.now())  # the spread set at once, before the next scan update
                 rospy.loginfo(LOG + "global localization: %d particles over the free space",
                               len(self.localizer.pf))
             except ValueError as exc:
