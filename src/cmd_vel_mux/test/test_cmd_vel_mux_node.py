@@ -9,7 +9,7 @@ import roslaunch.xmlloader
 
 from florence_harness import workspace
 from florence_harness.processes import roslaunch as start_roslaunch
-from florence_harness.processes import wait_for
+from florence_harness.processes import stop_all, wait_for
 
 TELEOP_TIMEOUT = 0.5  # [s] config/cmd_vel_mux.yaml
 
@@ -76,9 +76,7 @@ def test_priority_take_over_timeout_hand_back_and_idle_stop(ros_master, rospy_no
             stop(timer)
         for handle in (sub, sub_active, nav, teleop):
             handle.unregister()
-        if not proc.running():
-            print(proc.output())
-        proc.stop()
+        stop_all(proc)
 
 
 def load(relative):

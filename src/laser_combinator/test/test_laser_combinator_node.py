@@ -7,7 +7,7 @@ import time
 import numpy as np
 import pytest
 
-from florence_harness.processes import ManagedProcess, roslaunch, wait_for
+from florence_harness.processes import ManagedProcess, roslaunch, stop_all, wait_for
 
 pytestmark = pytest.mark.ros
 
@@ -80,10 +80,7 @@ def combinator(ros_master, rospy_node, tf_buffer):
         sub.unregister()
         for p in pubs:
             p.unregister()
-        for proc in reversed(procs):
-            if not proc.running():
-                print(proc.output())
-            proc.stop()
+        stop_all(*procs)
 
 
 def test_nearer_reading_per_angle_through_tf_with_the_inverted_laser(combinator, rospy_node, tf_buffer):

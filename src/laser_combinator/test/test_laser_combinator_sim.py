@@ -7,17 +7,13 @@ import math
 import numpy as np
 import pytest
 
-from florence_harness.processes import ManagedProcess, roslaunch, wait_for
+from florence_harness.processes import roslaunch, rosrun, stop_all, wait_for
 
 pytestmark = pytest.mark.ros
 
 # The robot at (1.3, 4.3) facing east: the dining table (x 2.8..4.0, y 3.4..4.2, top 0.75 m)
 # and chair_west (seat 0.45 m at x 2.45, y 3.8) lie ahead and to the robot's RIGHT only.
 POSE = ["x:=1.3", "y:=4.3", "yaw:=0.0"]
-
-
-def rosrun(master, package, executable, *args):
-    return ManagedProcess(["rosrun", package, executable, *args], env=master.env(), name=executable)
 
 
 @pytest.fixture(scope="module")
@@ -48,10 +44,7 @@ def chain(ros_master, rospy_node, tmp_path_factory):
     finally:
         for s in subs:
             s.unregister()
-        for proc in reversed(procs):
-            if not proc.running():
-                print(proc.output())
-            proc.stop()
+        stop_all(*procs)
         if rospy_node.has_param("/use_sim_time"):
             rospy_node.delete_param("/use_sim_time")  # later tests on this master run on wall time
 

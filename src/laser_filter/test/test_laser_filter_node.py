@@ -5,7 +5,7 @@ import math
 
 import pytest
 
-from florence_harness.processes import roslaunch, wait_for
+from florence_harness.processes import roslaunch, stop_all, wait_for
 
 pytestmark = pytest.mark.ros
 
@@ -55,6 +55,4 @@ def test_filters_the_combined_scan_and_survives_bad_scans(ros_master, rospy_node
     finally:
         sub.unregister()
         pub.unregister()
-        if not proc.running():
-            print(proc.output())
-        proc.stop()
+        stop_all(proc)

@@ -7,7 +7,7 @@ import time
 import numpy as np
 import pytest
 
-from florence_harness.processes import ManagedProcess, roslaunch, wait_for
+from florence_harness.processes import ManagedProcess, roslaunch, stop_all, wait_for
 
 pytestmark = pytest.mark.ros
 
@@ -39,10 +39,7 @@ def robot(ros_master, rospy_node, tf_buffer):
     finally:
         for s in subs:
             s.unregister()
-        for proc in reversed(procs):
-            if not proc.running():
-                print(proc.output())
-            proc.stop()
+        stop_all(*procs)
 
 
 def send_until_scan(rospy, sends, scans, what):

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 from turtlebot_node.create_emulator import CreateEmulator
 
-from florence_harness.processes import ManagedProcess, pid_alive, wait_for
+from florence_harness.processes import ManagedProcess, pid_alive, stop_all, wait_for
 from florence_harness.pty_device import PtyDevice
 from turtlebot_node import oi_spec as oi
 
@@ -101,9 +101,7 @@ def robot(ros_master, rospy_node, tmp_path_factory):
         print(proc.output())
         raise
     finally:
-        if not proc.running():
-            print(proc.output())
-        proc.stop()
+        stop_all(proc)
         robot.close()
 
 

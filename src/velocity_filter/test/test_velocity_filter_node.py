@@ -8,7 +8,7 @@ import time
 import numpy as np
 import pytest
 
-from florence_harness.processes import roslaunch, wait_for
+from florence_harness.processes import roslaunch, stop_all, wait_for
 
 pytestmark = pytest.mark.ros
 
@@ -66,9 +66,7 @@ def node(ros_master, rospy_node):
     finally:
         out.sub.unregister()
         pub.unregister()
-        if not proc.running():
-            print(proc.output())
-        proc.stop()
+        stop_all(proc)
 
 
 def test_publishes_at_50_hz_within_5_percent(node):

@@ -191,3 +191,17 @@ def roslaunch(master, package, launch_file, *args, log_path=None, env=None):
         log_path=log_path or os.path.join(master.ros_home, f"roslaunch-{package}-{launch_file}.log"),
         name=f"roslaunch {package}/{launch_file}",
     )
+
+
+def rosrun(master, package, executable, *args, env=None):
+    """Start ``rosrun package executable args...`` against ``master``; the caller stops it."""
+    return ManagedProcess(["rosrun", package, executable, *args], env=master.env(env), name=executable)
+
+
+def stop_all(*procs):
+    """Stop ``procs`` in reverse start order, printing the output of any that had already
+    exited (the usual reason a test failed)."""
+    for proc in reversed(procs):
+        if not proc.running():
+            print(f"----- {proc.name} exited early -----\n{proc.output()}")
+        proc.stop()
