@@ -1,0 +1,282 @@
+"""move_base's state machine (ROS-free): plan, control, clear, with ROS's patience rules.
+
+One :meth:`MoveBaseCore.cycle` call is one turn of ROS move_base's ``executeCycle`` at
+``controller_frequency``. Planning runs inside the cycle (the plan takes milliseconds here, so
+no planner thread is needed; ``planner_frequency`` > 0 replans while controlling, as ROS does).
+
+States (ROS names): PLANNING -> CONTROLLING -> goal reached; a failure goes to CLEARING, which runs
+the next recovery behaviour and goes back to PLANNING; when the recoveries are used up the goal
+is aborted. Unlike ROS every abort says why (the planner's or controller's last reason), a goal
+that can never be reached on the static map (off the map, inside a wall) is aborted at once, and
+recoveries are stepped by the cycle so that a cancel stops even an in-place rotation.
+
+The collaborators are injected (duck-typed), so the machine is tested with fakes:
+    planner(start, goal) -> PlanResult-like (ok, poses (N, 3), reason, permanent: bool)
+    controller: set_plan(poses), compute_velocity(pose) -> (ok, (vx, vy, vth), reason),
+                is_goal_reached() -> bool
+    recoveries: objects with ``name`` and ``start(now, pose)``, ``step(now, pose) -> (done, cmd)``
+    sensors_current() -> (ok, reason)
+"""
+
+import logging
+import math
+from dataclasses import dataclass, field
+
+log = logging.getLogger(__name__)
+
+PLANNING = "PLANNING"
+CONTROLLING = "CONTROLLING"
+CLEARING = "CLEARING"
+
+PLANNING_R = "PLANNING_R"
+CONTROLLING_R = "CONTROLLING_R"
+OSCILLATION_R = "OSCILLATION_R"
+
+ZERO = (0.0, 0.0, 0.0)
+
+
+@dataclass
+class MoveBaseParams:
+    """move_base's own parameters (ROS names, ROS defaults; times [s], distances [m], rates [Hz])."""
+
+    planner_frequency: float = 0.0
+    planner_patience: float = 5.0
+    controller_frequency: float = 20.0
+    controller_patience: float = 15.0
+    max_planning_retries: int = -1
+    oscillation_timeout: float = 0.0
+    oscillation_distance: float = 0.5
+    recovery_behavior_enabled: bool = True
+    clearing_rotation_allowed: bool = True
+    conservative_reset_dist: float = 3.0
+    shutdown_costmaps: bool = False
+
+    def validate(self):
+        checks = {
+            "planner_frequency": self.planner_frequency >= 0.0,
+            "planner_patience": self.planner_patience >= 0.0,
+            "controller_frequency": self.controller_frequency > 0.0,
+            "controller_patience": self.controller_patience >= 0.0,
+            "oscillation_timeout": self.oscillation_timeout >= 0.0,
+            "oscillation_distance": self.oscillation_distance >= 0.0,
+            "conservative_reset_dist": self.conservative_reset_dist >= 0.0,
+        }
+        for name, ok in checks.items():
+            value = getattr(self, name)
+            if not ok or not math.isfinite(float(value)):
+                raise ValueError(f"~{name} = {value!r} is out of range")
+        return self
+
+
+@dataclass
+class CycleResult:
+    """What one cycle asks of the node: a velocity command (or None: send nothing new) and,
+    when the goal ended, its outcome ("succeeded" or "aborted") with the reason text."""
+
+    cmd: tuple | None = None
+    outcome: str | None = None
+    text: str = ""
+    new_plan: object = None
+
+
+@dataclass
+class _GoalState:
+    goal: tuple
+    state: str = PLANNING
+    trigger: str = PLANNING_R
+    recovery_index: int = 0
+    recovery: object = None
+    last_valid_plan: float = 0.0
+    last_valid_control: float = 0.0
+    last_oscillation_reset: float = 0.0
+    oscillation_pose: tuple = (0.0, 0.0)
+    planning_retries: int = 0
+    last_plan_time: float = -math.inf
+    have_plan: bool = False
+    reasons: dict = field(default_factory=dict)
+
+
+class MoveBaseCore:
+    """The goal-level state machine of move_base."""
+
+    def __init__(self, params, planner, controller, recoveries, sensors_current=None):
+        self.params = params.validate()
+        self.planner = planner
+        self.controller = controller
+        self.recoveries = list(recoveries)
+        self.sensors_current = sensors_current or (lambda: (True, ""))
+        self.g = None
+
+    # --- goal life cycle ----------------------------------------------------------------------
+    @property
+    def active(self):
+        return self.g is not None
+
+    @property
+    def state(self):
+        return None if self.g is None else self.g.state
+
+    def set_goal(self, goal, now, pose):
+        """Start on a new goal (x, y, yaw) in the global frame; replaces any current goal."""
+        self.g = _GoalState(goal=tuple(goal))
+        self.g.last_valid_plan = self.g.last_valid_control = self.g.last_oscillation_reset = now
+        self.g.oscillation_pose = (pose[0], pose[1]) if pose is not None else (math.nan, math.nan)
+
+    def reset(self):
+        """Forget the goal (cancel, preemption, or after an outcome). The node stops the robot."""
+        self.g = None
+
+    # --- one cycle ----------------------------------------------------------------------------
+    def cycle(self, now, pose):
+        """One control cycle at time ``now`` [s] with the robot at ``pose`` (x, y, yaw) in the global
+        frame (None when tf could not tell)."""
+        g = self.g
+        if g is None:
+            return CycleResult()
+        p = self.params
+        if pose is None:
+            # tf could not place the robot: stop; the goal ends when controller_patience runs out
+            g.reasons[CONTROLLING_R] = "transform timeout: no pose of the robot in the global frame"
+            if now - g.last_valid_control > p.controller_patience:
+                return self._abort(f"Transform timeout: no robot pose for longer than controller_patience "
+                                   f"({p.controller_patience:.1f} s)")
+            return CycleResult(cmd=ZERO, text=g.reasons[CONTROLLING_R])
+
+        # oscillation: moving oscillation_distance resets the clock (and the recoveries it started)
+        if math.hypot(pose[0] - g.oscillation_pose[0], pose[1] - g.oscillation_pose[1]) >= p.oscillation_distance or (
+            math.isnan(g.oscillation_pose[0])
+        ):
+            g.last_oscillation_reset = now
+            g.oscillation_pose = (pose[0], pose[1])
+            if g.trigger == OSCILLATION_R:
+                g.recovery_index = 0
+
+        ok, why = self.sensors_current()
+        if not ok and g.state != CLEARING:
+            # ROS stops and waits for fresh data; the goal ends when controller_patience runs out.
+            g.reasons[CONTROLLING_R] = f"sensor data is out of date: {why}"
+            if now - g.last_valid_control > p.controller_patience:
+                return self._abort(f"Sensor data is out of date for longer than controller_patience "
+                                   f"({p.controller_patience:.1f} s): {why}")
+            return CycleResult(cmd=ZERO, text=g.reasons[CONTROLLING_R])
+
+        result = CycleResult()
+        if g.state == PLANNING or (
+            g.state == CONTROLLING and p.planner_frequency > 0.0 and now - g.last_plan_time >= 1.0 / p.planner_frequency
+        ):
+            planned = self._plan(now, pose)
+            if planned is not None:
+                return planned
+            result.new_plan, self._fresh_plan = self._fresh_plan, None
+
+        if g.state == CONTROLLING:
+            return self._control(now, pose, result)
+        if g.state == CLEARING:
+            return self._clear(now, pose)
+        return result
+
+    # --- the three states ---------------------------------------------------------------------
+    _fresh_plan = None
+
+    def _plan(self, now, pose):
+        """Plan from ``pose`` to the goal; None when the plan is fine, else a result to return."""
+        g, p = self.g, self.params
+        g.last_plan_time = now
+        plan = self.planner(tuple(pose), g.goal)
+        if plan.ok:
+            self._fresh_plan = plan
+            g.last_valid_plan = now
+            g.planning_retries = 0
+            self.controller.set_plan(plan.poses)
+            g.have_plan = True
+            if g.state == PLANNING:
+                g.state = CONTROLLING
+                if g.trigger == PLANNING_R:
+                    g.recovery_index = 0
+            return None
+        g.reasons[PLANNING_R] = plan.reason
+        if getattr(plan, "permanent", False):
+            return self._abort(plan.reason)
+        if g.state == PLANNING:
+            g.planning_retries += 1
+            too_long = now - g.last_valid_plan > p.planner_patience
+            too_many = 0 <= p.max_planning_retries < g.planning_retries
+            if too_long or too_many:
+                log.info("planning failed for %.1f s (%d tries): %s", now - g.last_valid_plan, g.planning_retries,
+                         plan.reason)
+                g.state = CLEARING
+                g.trigger = PLANNING_R
+                return CycleResult(cmd=ZERO, text=plan.reason)
+            return CycleResult(cmd=ZERO, text=plan.reason)
+        # replanning while controlling failed: keep following the old plan (ROS does the same)
+        return None
+
+    def _control(self, now, pose, result):
+        g, p = self.g, self.params
+        if self.controller.is_goal_reached():
+            self.reset()
+            return CycleResult(cmd=ZERO, outcome="succeeded", text="Goal reached.")
+        if p.oscillation_timeout > 0.0 and now - g.last_oscillation_reset > p.oscillation_timeout:
+            g.state = CLEARING
+            g.trigger = OSCILLATION_R
+            g.reasons[OSCILLATION_R] = (f"the robot moved less than oscillation_distance "
+                                        f"({p.oscillation_distance:.2f} m) in oscillation_timeout "
+                                        f"({p.oscillation_timeout:.1f} s)")
+            return CycleResult(cmd=ZERO, text=g.reasons[OSCILLATION_R])
+        ok, cmd, reason = self.controller.compute_velocity(tuple(pose))
+        if ok:
+            g.last_valid_control = now
+            if g.trigger == CONTROLLING_R:
+                g.recovery_index = 0
+            result.cmd = tuple(cmd)
+            return result
+        g.reasons[CONTROLLING_R] = reason
+        if now - g.last_valid_control > p.controller_patience:
+            g.state = CLEARING
+            g.trigger = CONTROLLING_R
+        else:
+            # no valid command now: plan again from here (ROS goes back to PLANNING)
+            g.state = PLANNING
+        result.cmd = ZERO
+        result.text = reason
+        return result
+
+    def _clear(self, now, pose):
+        g, p = self.g, self.params
+        if g.recovery is None:
+            if not (p.recovery_behavior_enabled and g.recovery_index < len(self.recoveries)):
+                return self._abort(self._final_text())
+            g.recovery = self.recoveries[g.recovery_index]
+            log.info("running recovery behaviour %d: %s", g.recovery_index, g.recovery.name)
+            g.recovery.start(now, tuple(pose))
+        done, cmd = g.recovery.step(now, tuple(pose))
+        if not done:
+            return CycleResult(cmd=tuple(cmd) if cmd is not None else ZERO, text=f"recovery {g.recovery.name}")
+        g.recovery = None
+        g.recovery_index += 1
+        g.last_oscillation_reset = now
+        g.state = PLANNING
+        g.planning_retries = 0
+        g.last_valid_plan = now
+        return CycleResult(cmd=ZERO, text="recovery done")
+
+    def _final_text(self):
+        g = self.g
+        what = {
+            PLANNING_R: "Failed to find a valid plan",
+            CONTROLLING_R: "Failed to find a valid control",
+            OSCILLATION_R: "Robot is oscillating",
+        }[g.trigger]
+        after = "even after executing recovery behaviors" if self.params.recovery_behavior_enabled and \
+            self.recoveries else "(recovery behaviours disabled)"
+        detail = g.reasons.get(g.trigger, "")
+        return f"{what} {after}: {detail}" if detail else f"{what} {after}."
+
+    def _abort(self, text):
+        self.reset()
+        return CycleResult(cmd=ZERO, outcome="aborted", text=text)
+
+    def stop_recovery(self):
+        """Cancel: end a running recovery (its step is not called again)."""
+        if self.g is not None:
+            self.g.recovery = None

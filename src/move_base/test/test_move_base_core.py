@@ -1,0 +1,265 @@
+"""move_base's state machine with fake planners, controllers and recoveries (no ROS)."""
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+from move_base.move_base_core import CLEARING, CONTROLLING, PLANNING, MoveBaseCore, MoveBaseParams
+from move_base.recovery import ClearCostmapRecovery, RotateRecovery, default_recovery_specs
+
+
+@dataclass
+class Plan:
+    ok: bool
+    poses: object = None
+    reason: str = ""
+    permanent: bool = False
+
+
+class FakePlanner:
+    def __init__(self, answers):
+        self.answers = list(answers)
+        self.calls = 0
+
+    def __call__(self, start, goal):
+        self.calls += 1
+        answer = self.answers[min(self.calls - 1, len(self.answers) - 1)]
+        return answer
+
+
+class FakeController:
+    def __init__(self, ok=True, reached_after=None):
+        self.ok = ok
+        self.reached_after = reached_after
+        self.plans = []
+        self.calls = 0
+
+    def set_plan(self, poses):
+        self.plans.append(poses)
+
+    def compute_velocity(self, pose):
+        self.calls += 1
+        if self.ok:
+            return True, (0.3, 0.0, 0.1), ""
+        return False, (0.0, 0.0, 0.0), "no valid trajectory (all samples collide)"
+
+    def is_goal_reached(self):
+        return self.reached_after is not None and self.calls >= self.reached_after
+
+
+class FakeRecovery:
+    def __init__(self, name, steps=1):
+        self.name = name
+        self.steps = steps
+        self.started = 0
+        self.stepped = 0
+
+    def start(self, now, pose):
+        self.started += 1
+        self._left = self.steps
+
+    def step(self, now, pose):
+        self.stepped += 1
+        self._left -= 1
+        return self._left <= 0, (0.0, 0.0, 0.5)
+
+
+GOOD = Plan(True, np.zeros((3, 3)))
+POSE = (0.0, 0.0, 0.0)
+
+
+def run(core, pose=POSE, t0=0.0, dt=0.2, n=200):
+    """Cycle until an outcome; returns (outcome, text, time, results)."""
+    results = []
+    for i in range(n):
+        now = t0 + i * dt
+        r = core.cycle(now, pose(now) if callable(pose) else pose)
+        results.append(r)
+        if r.outcome:
+            return r.outcome, r.text, now, results
+    return None, "", t0 + n * dt, results
+
+
+def test_plan_then_control_then_succeed():
+    ctrl = FakeController(reached_after=5)
+    core = MoveBaseCore(MoveBaseParams(), FakePlanner([GOOD]), ctrl, [])
+    core.set_goal((1.0, 0.0, 0.0), 0.0, POSE)
+    first = core.cycle(0.0, POSE)
+    assert core.state == CONTROLLING and first.cmd == (0.3, 0.0, 0.1) and first.new_plan is GOOD
+    outcome, text, _, results = run(core)
+    assert outcome == "succeeded" and text == "Goal reached."
+    assert results[-1].cmd == (0.0, 0.0, 0.0)
+    assert not core.active
+
+
+def test_planner_patience_then_recoveries_then_abort_with_reason():
+    planner = FakePlanner([Plan(False, reason="no path from (0.00, 0.00) to (5.00, 0.00)")])
+    recs = [FakeRecovery("conservative_reset"), FakeRecovery("rotate_recovery", steps=3)]
+    core = MoveBaseCore(MoveBaseParams(planner_patience=1.0), planner, FakeController(), recs)
+    core.set_goal((5.0, 0.0, 0.0), 0.0, POSE)
+    outcome, text, t_end, results = run(core)
+    assert outcome == "aborted"
+    assert "Failed to find a valid plan even after executing recovery behaviors" in text
+    assert "no path from" in text
+    assert [r.started for r in recs] == [1, 1] and recs[1].stepped == 3
+    # each recovery comes after planner_patience of failed planning: at least 2 x 1 s
+    assert t_end >= 2.0
+    # the rotation's commands went out while it ran
+    assert any(r.cmd == (0.0, 0.0, 0.5) for r in results)
+
+
+def test_max_planning_retries_counts_attempts():
+    planner = FakePlanner([Plan(False, reason="no path")])
+    core = MoveBaseCore(MoveBaseParams(planner_patience=100.0, max_planning_retries=2, recovery_behavior_enabled=False),
+                        planner, FakeController(), [FakeRecovery("r")])
+    core.set_goal((5.0, 0.0, 0.0), 0.0, POSE)
+    outcome, text, _, _ = run(core)
+    assert outcome == "aborted" and "recovery behaviours disabled" in text
+    assert planner.calls == 3
+
+
+def test_permanent_planning_failure_aborts_at_once():
+    planner = FakePlanner([Plan(False, reason="the goal (50.00, 0.00) is off the global costmap", permanent=True)])
+    core = MoveBaseCore(MoveBaseParams(), planner, FakeController(), [FakeRecovery("r")])
+    core.set_goal((50.0, 0.0, 0.0), 0.0, POSE)
+    r = core.cycle(0.0, POSE)
+    assert r.outcome == "aborted" and "off the global costmap" in r.text
+
+
+def test_controller_failure_replans_then_clears_after_patience():
+    ctrl = FakeController(ok=False)
+    planner = FakePlanner([GOOD])
+    rec = FakeRecovery("conservative_reset")
+    core = MoveBaseCore(MoveBaseParams(controller_patience=3.0), planner, ctrl, [rec])
+    core.set_goal((1.0, 0.0, 0.0), 0.0, POSE)
+    r = core.cycle(0.0, POSE)
+    assert r.cmd == (0.0, 0.0, 0.0) and core.state == PLANNING  # no command: plan again
+    outcome, text, t_end, _ = run(core, t0=0.2)
+    assert outcome == "aborted"
+    assert text.startswith("Failed to find a valid control even after executing recovery behaviors")
+    assert "all samples collide" in text
+    assert rec.started == 1
+    # patience before the recovery; after it (as ROS) the next failure goes on to the next recovery
+    assert 3.0 < t_end < 4.0
+    assert planner.calls > 5  # it replanned between failures
+
+
+def test_oscillation_timeout():
+    ctrl = FakeController()
+    core = MoveBaseCore(MoveBaseParams(oscillation_timeout=2.0, oscillation_distance=0.5), FakePlanner([GOOD]), ctrl,
+                        [FakeRecovery("r")])
+    core.set_goal((3.0, 0.0, 0.0), 0.0, POSE)
+    outcome, text, t_end, _ = run(core)  # the robot never moves
+    assert outcome == "aborted" and text.startswith("Robot is oscillating")
+    assert 4.0 <= t_end <= 5.0
+
+
+def test_moving_resets_the_oscillation_clock():
+    ctrl = FakeController(reached_after=60)
+    core = MoveBaseCore(MoveBaseParams(oscillation_timeout=2.0), FakePlanner([GOOD]), ctrl, [])
+    core.set_goal((30.0, 0.0, 0.0), 0.0, POSE)
+    outcome, _, _, _ = run(core, pose=lambda t: (0.3 * t, 0.0, 0.0))  # 0.3 m/s: 0.5 m every 1.7 s
+    assert outcome == "succeeded"
+
+
+def test_stale_sensors_stop_the_robot_then_abort_saying_so():
+    fresh = {"ok": True}
+    core = MoveBaseCore(MoveBaseParams(controller_patience=2.0), FakePlanner([GOOD]), FakeController(), [],
+                        sensors_current=lambda: (fresh["ok"], "scan (/filtered_scan) last seen 3.1 s ago"))
+    core.set_goal((3.0, 0.0, 0.0), 0.0, POSE)
+    assert core.cycle(0.0, POSE).cmd == (0.3, 0.0, 0.1)
+    fresh["ok"] = False
+    r = core.cycle(0.2, POSE)
+    assert r.cmd == (0.0, 0.0, 0.0) and "out of date" in r.text and r.outcome is None
+    outcome, text, _, _ = run(core, t0=0.4)
+    assert outcome == "aborted" and "Sensor data is out of date" in text and "/filtered_scan" in text
+
+
+def test_no_pose_is_a_transform_timeout():
+    core = MoveBaseCore(MoveBaseParams(controller_patience=1.0), FakePlanner([GOOD]), FakeController(), [])
+    core.set_goal((3.0, 0.0, 0.0), 0.0, POSE)
+    outcome, text, _, _ = run(core, pose=None)
+    assert outcome == "aborted" and text.startswith("Transform timeout")
+
+
+def test_reset_mid_recovery_stops_stepping():
+    planner = FakePlanner([Plan(False, reason="no path")])
+    rec = FakeRecovery("rotate_recovery", steps=100)
+    core = MoveBaseCore(MoveBaseParams(planner_patience=0.0), planner, FakeController(), [rec])
+    core.set_goal((5.0, 0.0, 0.0), 0.0, POSE)
+    for i in range(5):
+        core.cycle(i * 0.2, POSE)
+    assert core.state == CLEARING and rec.stepped > 0
+    stepped = rec.stepped
+    core.reset()
+    assert core.cycle(2.0, POSE).cmd is None and rec.stepped == stepped
+
+
+@pytest.mark.parametrize("bad", [{"controller_frequency": 0.0}, {"planner_patience": -1.0},
+                                 {"oscillation_distance": math.nan}])
+def test_params_are_validated(bad):
+    with pytest.raises(ValueError, match=next(iter(bad))):
+        MoveBaseParams(**bad).validate()
+
+
+# --- recoveries --------------------------------------------------------------------------------
+def test_default_recovery_list_is_rosses():
+    specs = default_recovery_specs(3.0, 0.25, True)
+    assert [s[0] for s in specs] == ["conservative_reset", "rotate_recovery", "aggressive_reset", "rotate_recovery"]
+    assert specs[0][2] == 3.0 and specs[2][2] == pytest.approx(1.0)
+    assert [s[0] for s in default_recovery_specs(3.0, 0.25, False)] == ["conservative_reset", "aggressive_reset"]
+
+
+class FakeCostmap:
+    def __init__(self, pose):
+        self.pose = pose
+        self.cleared = []
+
+    def get_robot_pose(self):
+        return self.pose
+
+    def clear_outside(self, x, y, size):
+        self.cleared.append((x, y, size))
+
+
+def test_clear_costmap_recovery_clears_each_costmap_round_its_own_pose():
+    a, b = FakeCostmap((1.0, 2.0, 0.0)), FakeCostmap((-3.0, 0.5, 1.0))
+    rec = ClearCostmapRecovery("conservative_reset", [a, b], 3.0)
+    rec.start(0.0, (0, 0, 0))
+    assert rec.step(0.0, (0, 0, 0)) == (True, None)
+    assert a.cleared == [(1.0, 2.0, 3.0)] and b.cleared == [(-3.0, 0.5, 3.0)]
+
+
+def simulate_rotation(rec, collide_at=None, dt=0.05):
+    """Integrate the recovery's commands; returns the total turn [rad] and the commands."""
+    state = {"yaw": 0.3}
+    rec.costmap_check = lambda x, y, yaw: -1.0 if collide_at is not None and yaw - 0.3 >= collide_at else 0.0
+    rec.pose_in_local = lambda: (0.0, 0.0, state["yaw"])
+    rec.start(0.0, (0.0, 0.0, 0.0))
+    cmds = []
+    for i in range(2000):
+        done, cmd = rec.step(i * dt, None)
+        cmds.append(cmd)
+        if done:
+            break
+        state["yaw"] += cmd[2] * dt
+    return state["yaw"] - 0.3, cmds
+
+
+def test_rotate_recovery_turns_once_within_limits():
+    rec = RotateRecovery("rotate_recovery", None, None, acc_lim_th=3.0, max_rotational_vel=1.5,
+                         min_in_place_rotational_vel=1.0)
+    turned, cmds = simulate_rotation(rec)
+    assert 2 * math.pi - 0.2 <= turned <= 2 * math.pi + 0.1
+    speeds = [c[2] for c in cmds[:-1]]
+    assert min(speeds) >= 1.0 and max(speeds) <= 1.5
+    assert cmds[-1] == (0.0, 0.0, 0.0)
+
+
+def test_rotate_recovery_stops_before_a_collision():
+    rec = RotateRecovery("rotate_recovery", None, None, max_rotational_vel=1.0, min_in_place_rotational_vel=0.4)
+    turned, cmds = simulate_rotation(rec, collide_at=1.0)
+    assert turned < 1.0
+    assert cmds[-1] == (0.0, 0.0, 0.0)
