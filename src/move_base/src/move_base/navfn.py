@@ -1,0 +1,518 @@
+"""navfn's global planner: an interpolated navigation function on a costmap (ROS-free).
+
+Follows ROS 1 ``navfn`` (``NavFn`` in navfn.cpp, ``NavfnROS::makePlan`` in navfn_ros.cpp):
+
+1. Cost translation (``NavFn::setCostmap`` with ``isROS = true``; constants from navfn.h:
+   ``COST_NEUTRAL = 50``, ``COST_FACTOR = 3``, ``COST_OBS_ROS = 253``, ``COST_OBS = 254``,
+   ``COST_UNKNOWN_ROS = 255``). A costmap cell of cost ``c`` becomes the traversal cost
+
+   - ``c in 0..252``: ``min(COST_NEUTRAL + COST_FACTOR * c, COST_OBS - 1)``, i.e. 50..253
+     (saturating at 253 from ``c = 68`` on);
+   - ``c = 253`` (inscribed) or ``254`` (lethal): ``COST_OBS`` (254), an obstacle;
+   - ``c = 255`` (unknown): ``COST_OBS - 1`` (253, passable but expensive) when
+     ``allow_unknown``, else ``COST_OBS``.
+
+   As ``NavFn::setupNavFn`` does, the outer ring of cells is then set to ``COST_OBS``, so a
+   path never runs along the map's edge; and as ``NavfnROS::clearRobotCell`` does, the
+   robot's own cell is free (``COST_NEUTRAL``) whatever the costmap says. (NavfnROS writes
+   FREE_SPACE into the costmap itself; here only the translated copy is changed.)
+
+2. Potential: the wavefront of ``NavFn::updateCell``. A cell's potential is computed from
+   its two lowest 4-neighbours ``ta <= tc`` and its traversal cost ``hf``:
+   ``ta + hf`` if ``tc - ta >= hf``, else ``ta + hf * (-0.2301 d^2 + 0.5307 d + 0.7040)``
+   with ``d = (tc - ta) / hf`` (a quadratic fit of the planar-wave update). Units: traversal
+   cost x cells. NavfnROS puts potential 0 at the *robot's* cell (it calls ``setGoal`` with
+   the robot's cell and ``setStart`` with the goal's) and propagates until the goal cell has
+   a potential, or over everything reachable when it never gets one. Cells are expanded in
+   order of potential with a binary heap (navfn uses threshold-ordered priority buffers,
+   which only approximate that order).
+
+3. Goal selection (``NavfnROS::makePlan``): the points on a grid of ``resolution`` steps in
+   the square ``goal +- tolerance`` are tested, and the one with a finite potential closest
+   to the goal becomes the plan's end. With ``tolerance = 0`` only the goal itself is tested.
+
+4. Path (``NavFn::calcPath``): descent from the chosen end cell to the robot's cell,
+   ``PATH_STEP = 0.5`` cell per step along the bilinearly interpolated, normalised gradient
+   of the potential; where a cell of the 3 x 3 block around the current point has no
+   potential (obstacle, unreached), or the path oscillates, or the gradient vanishes, it
+   steps to the lowest of the 8 neighbouring cells instead. It ends when the current cell's
+   potential is below ``COST_NEUTRAL`` (only the robot's cell is). The path is reversed to
+   run robot -> goal, and the goal pose itself is appended, as NavfnROS does.
+
+Differences from NavfnROS, on purpose:
+- Path points are cell *centres* plus the interpolation offset (NavfnROS's ``mapToWorld``
+  maps cell index ``i`` to the cell's corner, shifting its paths by half a cell).
+- The first pose is the robot's exact position (not its cell) and the goal's cell is not
+  repeated before the goal pose; each pose's yaw points at the next pose (NavfnROS leaves
+  the identity orientation on all poses but the goal).
+- A goal in an obstacle gets its own failure reason; NavfnROS just fails to find a plan.
+- ``planner_window_x/y`` (read but unused by NavfnROS) crop the search to a window around
+  the robot, see :class:`NavfnPlanner`.
+"""
+
+import dataclasses
+import logging
+import math
+
+import numba
+import numpy as np
+
+from move_base.costmap_2d import INSCRIBED_INFLATED_OBSTACLE, NO_INFORMATION
+
+log = logging.getLogger(__name__)
+
+# navfn.h constants (traversal-cost units).
+COST_NEUTRAL = 50  # cost of a free cell
+COST_FACTOR = 3  # costmap cost -> traversal cost slope
+COST_OBS = 254  # obstacle in the translated array (never entered)
+COST_OBS_ROS = 253  # costmap costs >= this are obstacles
+COST_UNKNOWN_ROS = 255
+PATH_STEP = 0.5  # gradient descent step [cells]
+
+# Propagation goes on past the goal until the popped potential exceeds the goal's by this
+# much, so the goal's 3 x 3 neighbourhood has final potentials for the descent's first step.
+_GOAL_MARGIN = 2.0 * COST_OBS
+
+
+def cost_translation_table(allow_unknown=True):
+    """256-entry ``uint8`` table: costmap cost -> navfn traversal cost (see the module doc)."""
+    c = np.arange(256, dtype=np.int64)
+    table = np.where(c < COST_OBS_ROS, np.minimum(COST_NEUTRAL + COST_FACTOR * c, COST_OBS - 1), COST_OBS)
+    if allow_unknown:
+        table[COST_UNKNOWN_ROS] = COST_OBS - 1
+    return table.astype(np.uint8)
+
+
+def translate_costs(costs, allow_unknown=True, robot_cell=None):
+    """navfn traversal costs of a ``uint8`` costmap array ``costs[my, mx]``.
+
+    Obstacles (and the outer ring of cells) are ``COST_OBS``; ``robot_cell`` = (mx, my), if
+    given, is set to ``COST_NEUTRAL``.
+    """
+    out = cost_translation_table(allow_unknown)[np.asarray(costs, dtype=np.uint8)]
+    out[0, :] = COST_OBS
+    out[-1, :] = COST_OBS
+    out[:, 0] = COST_OBS
+    out[:, -1] = COST_OBS
+    if robot_cell is not None:
+        out[robot_cell[1], robot_cell[0]] = COST_NEUTRAL
+    return out
+
+
+@numba.njit(cache=True)
+def _cell_update(pot, cost, j, nx):
+    """navfn's updateCell value for interior cell j (flat index) from its 4 neighbours."""
+    left = pot[j - 1]
+    right = pot[j + 1]
+    up = pot[j - nx]
+    down = pot[j + nx]
+    tc = left if left < right else right
+    ta = up if up < down else down
+    hf = np.float32(cost[j])
+    dc = tc - ta
+    if dc < 0:
+        dc = -dc
+        ta = tc
+    if dc >= hf:  # also when one of them is inf
+        return ta + hf
+    d = dc / hf
+    return ta + hf * (np.float32(-0.2301) * d * d + np.float32(0.5307) * d + np.float32(0.7040))
+
+
+@numba.njit(cache=True)
+def _propagate(cost, start_x, start_y, goal_x, goal_y, margin):
+    """Potential ``float32[ny, nx]`` (inf where unreached) grown from (start_x, start_y).
+
+    Stops once the potential of the goal cell is final and the wave is ``margin`` beyond it;
+    ``goal_x < 0`` propagates over everything reachable.
+    """
+    ny, nx = cost.shape
+    n = nx * ny
+    c = cost.ravel()
+    pot = np.full(n, np.inf, dtype=np.float32)
+    done = np.zeros(n, dtype=np.bool_)
+    cap = 4096
+    cap = max(cap, n // 16)
+    hkey = np.empty(cap, dtype=np.float32)
+    hidx = np.empty(cap, dtype=np.int32)
+    size = 0
+    goal = goal_y * nx + goal_x if goal_x >= 0 else -1
+    start = start_y * nx + start_x
+    stop_at = np.float32(np.inf)
+
+    pot[start] = 0.0
+    hkey[0] = 0.0
+    hidx[0] = start
+    size = 1
+    while size > 0:
+        # pop the minimum
+        key = hkey[0]
+        i = hidx[0]
+        size -= 1
+        if size > 0:
+            lk = hkey[size]
+            li = hidx[size]
+            pos = 0
+            while True:
+                child = 2 * pos + 1
+                if child >= size:
+                    break
+                if child + 1 < size and hkey[child + 1] < hkey[child]:
+                    child += 1
+                if hkey[child] >= lk:
+                    break
+                hkey[pos] = hkey[child]
+                hidx[pos] = hidx[child]
+                pos = child
+            hkey[pos] = lk
+            hidx[pos] = li
+        if done[i] or key > pot[i]:
+            continue  # stale entry
+        if key > stop_at:
+            break
+        done[i] = True
+        if i == goal:
+            stop_at = key + np.float32(margin)
+        ix = i % nx
+        iy = i // nx
+        for k in range(4):
+            if k == 0:
+                if ix == 0:
+                    continue
+                j = i - 1
+            elif k == 1:
+                if ix == nx - 1:
+                    continue
+                j = i + 1
+            elif k == 2:
+                if iy == 0:
+                    continue
+                j = i - nx
+            else:
+                if iy == ny - 1:
+                    continue
+                j = i + nx
+            # only interior cells are below COST_OBS (the ring is COST_OBS), except the start
+            if done[j] or c[j] >= COST_OBS:
+                continue
+            new = _cell_update(pot, c, j, nx)
+            if new < pot[j]:
+                pot[j] = new
+                if size == cap:
+                    cap *= 2
+                    nk = np.empty(cap, dtype=np.float32)
+                    ni = np.empty(cap, dtype=np.int32)
+                    nk[:size] = hkey[:size]
+                    ni[:size] = hidx[:size]
+                    hkey = nk
+                    hidx = ni
+                pos = size
+                size += 1
+                while pos > 0:
+                    parent = (pos - 1) // 2
+                    if hkey[parent] <= new:
+                        break
+                    hkey[pos] = hkey[parent]
+                    hidx[pos] = hidx[parent]
+                    pos = parent
+                hkey[pos] = new
+                hidx[pos] = j
+    return pot.reshape(ny, nx)
+
+
+@numba.njit(cache=True)
+def _cell_gradient(p, n, nx, ny):
+    """navfn's gradCell: unit downhill direction (gx, gy) at cell n from its finite neighbours."""
+    cv = p[n]
+    x = n % nx
+    y = n // nx
+    dx = 0.0
+    dy = 0.0
+    if cv < np.inf:
+        if x > 0 and p[n - 1] < np.inf:
+            dx += p[n - 1] - cv
+        if x < nx - 1 and p[n + 1] < np.inf:
+            dx += cv - p[n + 1]
+        if y > 0 and p[n - nx] < np.inf:
+            dy += p[n - nx] - cv
+        if y < ny - 1 and p[n + nx] < np.inf:
+            dy += cv - p[n + nx]
+    else:  # in an obstacle: push towards a side with a potential
+        if x > 0 and p[n - 1] < np.inf:
+            dx = -float(COST_OBS)
+        elif x < nx - 1 and p[n + 1] < np.inf:
+            dx = float(COST_OBS)
+        if y > 0 and p[n - nx] < np.inf:
+            dy = -float(COST_OBS)
+        elif y < ny - 1 and p[n + nx] < np.inf:
+            dy = float(COST_OBS)
+    norm = math.hypot(dx, dy)
+    if norm > 0.0:
+        return dx / norm, dy / norm
+    return 0.0, 0.0
+
+
+@numba.njit(cache=True)
+def _descend(potential, from_x, from_y, max_steps):
+    """Path (cell coordinates, cell centres at integers) from the point (from_x, from_y) [cells]
+    down to the potential's zero cell. Returns (xs, ys, ok)."""
+    ny, nx = potential.shape
+    p = potential.ravel()
+    cap = 1024
+    xs = np.empty(cap, dtype=np.float64)
+    ys = np.empty(cap, dtype=np.float64)
+    npath = 0
+    px = float(from_x)
+    py = float(from_y)
+    for _ in range(max_steps):
+        cx = min(max(math.floor(px + 0.5), 0), nx - 1)
+        cy = min(max(math.floor(py + 0.5), 0), ny - 1)
+        c = cy * nx + cx
+        if npath + 1 >= cap:
+            cap *= 2
+            nxs = np.empty(cap, dtype=np.float64)
+            nys = np.empty(cap, dtype=np.float64)
+            nxs[:npath] = xs[:npath]
+            nys[:npath] = ys[:npath]
+            xs = nxs
+            ys = nys
+        if p[c] < COST_NEUTRAL:  # only the zero cell is below COST_NEUTRAL
+            xs[npath] = cx
+            ys[npath] = cy
+            npath += 1
+            return xs[:npath], ys[:npath], True
+        xs[npath] = px
+        ys[npath] = py
+        npath += 1
+        oscillating = npath > 2 and xs[npath - 1] == xs[npath - 3] and ys[npath - 1] == ys[npath - 3]
+        interior = cx > 0 and cy > 0 and cx < nx - 1 and cy < ny - 1
+        all_finite = interior
+        if interior:
+            for dy in range(-1, 2):
+                for dx in range(-1, 2):
+                    if not p[c + dy * nx + dx] < np.inf:
+                        all_finite = False
+        gx = 0.0
+        gy = 0.0
+        if all_finite and not oscillating:
+            x0 = math.floor(px)
+            y0 = math.floor(py)
+            fx = px - x0
+            fy = py - y0
+            n00 = y0 * nx + x0
+            g00x, g00y = _cell_gradient(p, n00, nx, ny)
+            g10x, g10y = _cell_gradient(p, n00 + 1, nx, ny)
+            g01x, g01y = _cell_gradient(p, n00 + nx, nx, ny)
+            g11x, g11y = _cell_gradient(p, n00 + nx + 1, nx, ny)
+            gx = (1 - fy) * ((1 - fx) * g00x + fx * g10x) + fy * ((1 - fx) * g01x + fx * g11x)
+            gy = (1 - fy) * ((1 - fx) * g00y + fx * g10y) + fy * ((1 - fx) * g01y + fx * g11y)
+        g = math.hypot(gx, gy)
+        if g > 1e-6:
+            px += PATH_STEP * gx / g
+            py += PATH_STEP * gy / g
+        else:  # follow the grid: lowest of the 8 neighbours, which must be lower than here
+            best = c
+            best_p = p[c]
+            for dy in range(-1, 2):
+                yy = cy + dy
+                if yy < 0 or yy >= ny:
+                    continue
+                for dx in range(-1, 2):
+                    xx = cx + dx
+                    if xx < 0 or xx >= nx:
+                        continue
+                    q = yy * nx + xx
+                    if p[q] < best_p:
+                        best_p = p[q]
+                        best = q
+            if best == c:
+                return xs[:npath], ys[:npath], False
+            px = float(best % nx)
+            py = float(best // nx)
+    return xs[:npath], ys[:npath], False
+
+
+def compute_potential(traversal_costs, robot_cell, goal_cell=None):
+    """navfn potential ``float32[ny, nx]`` (0 at ``robot_cell`` = (mx, my), inf where not reached).
+
+    ``traversal_costs`` is a :func:`translate_costs` array. With ``goal_cell`` = (mx, my) the
+    wave stops a little past the goal; without it, it covers everything reachable.
+    """
+    cost = np.ascontiguousarray(traversal_costs, dtype=np.uint8)
+    gx, gy = (-1, -1) if goal_cell is None else goal_cell
+    return _propagate(cost, int(robot_cell[0]), int(robot_cell[1]), int(gx), int(gy), _GOAL_MARGIN)
+
+
+def descend_potential(potential, from_point, max_steps=None):
+    """Path (N, 2) in cell coordinates (cell (mx, my)'s centre at (mx, my)) from ``from_point`` =
+    (x, y) [cells] down to the potential's zero cell, or ``None`` when the descent gets stuck."""
+    potential = np.ascontiguousarray(potential, dtype=np.float32)
+    if max_steps is None:
+        max_steps = 2 * potential.size + 16
+    xs, ys, ok = _descend(potential, float(from_point[0]), float(from_point[1]), int(max_steps))
+    if not ok:
+        return None
+    return np.column_stack((xs, ys))
+
+
+@dataclasses.dataclass
+class PlanResult:
+    """A planning answer.
+
+    ok: a plan was found.
+    poses: (N, 3) array of (x [m], y [m], yaw [rad]) in the costmap's frame, robot -> goal; empty
+        when not ok.
+    reason: why planning failed ('' when ok).
+    potential: navfn potential over the costmap ``float32[size_y, size_x]`` (traversal cost x
+        cells, 0 at the robot, inf where not reached), or None when none was computed.
+    """
+
+    ok: bool
+    poses: np.ndarray
+    reason: str = ""
+    potential: np.ndarray = None
+
+
+def _fail(reason, potential=None):
+    log.debug("navfn: %s", reason)
+    return PlanResult(False, np.empty((0, 3)), reason, potential)
+
+
+class NavfnPlanner:
+    """NavfnROS's makePlan on a :class:`~move_base.costmap_2d.Costmap2D`.
+
+    Parameters (NavfnROS's ``~NavfnROS/*`` names and defaults):
+        allow_unknown (bool, True): unknown cells (255) are passable at traversal cost 253.
+        default_tolerance (float, 0.0, m): goal tolerance used when make_plan gets none.
+        planner_window_x, planner_window_y (float, 0.0, m): when both > 0, only the window of
+            that size centred on the robot's cell (clipped to the costmap) is searched, its edge
+            cells being walls like the costmap's; a goal outside it fails. 0 = whole costmap.
+        visualize_potential (bool, False): recorded for the node (publish the potential); the
+            potential is returned in every PlanResult anyway.
+    """
+
+    def __init__(self, allow_unknown=True, default_tolerance=0.0, planner_window_x=0.0, planner_window_y=0.0,
+                 visualize_potential=False):
+        if default_tolerance < 0.0:
+            raise ValueError(f"default_tolerance must be >= 0 m, got {default_tolerance}")
+        if planner_window_x < 0.0 or planner_window_y < 0.0:
+            raise ValueError(f"planner window must be >= 0 m, got {planner_window_x} x {planner_window_y}")
+        self.allow_unknown = bool(allow_unknown)
+        self.default_tolerance = float(default_tolerance)
+        self.planner_window_x = float(planner_window_x)
+        self.planner_window_y = float(planner_window_y)
+        self.visualize_potential = bool(visualize_potential)
+
+    def _window(self, costmap, robot_cell):
+        """Cell bounds (x0, y0, x1, y1), end exclusive, of the area searched."""
+        if self.planner_window_x <= 0.0 or self.planner_window_y <= 0.0:
+            return 0, 0, costmap.size_x, costmap.size_y
+        hx = math.ceil(0.5 * self.planner_window_x / costmap.resolution)
+        hy = math.ceil(0.5 * self.planner_window_y / costmap.resolution)
+        mx, my = robot_cell
+        return (max(mx - hx, 0), max(my - hy, 0), min(mx + hx + 1, costmap.size_x), min(my + hy + 1, costmap.size_y))
+
+    def make_plan(self, costmap, start, goal, tolerance=None):
+        """Plan from ``start`` = (x [m], y [m], yaw [rad]) to ``goal`` (same) on ``costmap``.
+
+        ``tolerance`` [m] (``default_tolerance`` when None): if the goal itself has no potential
+        (obstacle, unreachable), the reachable point of the square ``goal +- tolerance`` sampled
+        at the costmap's resolution closest to the goal is planned to instead.
+        Returns a :class:`PlanResult`; the costmap is not modified.
+        """
+        tol = self.default_tolerance if tolerance is None else float(tolerance)
+        sx, sy = float(start[0]), float(start[1])
+        gx, gy, gyaw = float(goal[0]), float(goal[1]), float(goal[2])
+        robot_cell = costmap.world_to_map(sx, sy)
+        if robot_cell is None:
+            return _fail(f"the robot's start ({sx:.2f}, {sy:.2f}) is off the global costmap")
+        goal_cell = costmap.world_to_map(gx, gy)
+        if goal_cell is None and tol <= 0.0:
+            return _fail(f"the goal ({gx:.2f}, {gy:.2f}) is off the global costmap")
+
+        x0, y0, x1, y1 = self._window(costmap, robot_cell)
+        in_window = goal_cell is not None and x0 <= goal_cell[0] < x1 and y0 <= goal_cell[1] < y1
+        if goal_cell is not None and not in_window:
+            return _fail(f"the goal ({gx:.2f}, {gy:.2f}) is outside the planner window "
+                         f"({self.planner_window_x:.2f} x {self.planner_window_y:.2f} m around the robot)")
+        rcell = (robot_cell[0] - x0, robot_cell[1] - y0)
+        trav = translate_costs(costmap.costs[y0:y1, x0:x1], self.allow_unknown, rcell)
+        # the wave may stop early only when the goal cell can get a potential
+        target = None
+        if goal_cell is not None and trav[goal_cell[1] - y0, goal_cell[0] - x0] < COST_OBS:
+            target = (goal_cell[0] - x0, goal_cell[1] - y0)
+        pot_win = compute_potential(trav, rcell, target)
+        if (x0, y0, x1, y1) == (0, 0, costmap.size_x, costmap.size_y):
+            potential = pot_win
+        else:
+            potential = np.full(costmap.costs.shape, np.inf, dtype=np.float32)
+            potential[y0:y1, x0:x1] = pot_win
+
+        # the end of the plan: the goal, else the closest reachable point within tolerance
+        if goal_cell is not None and np.isfinite(potential[goal_cell[1], goal_cell[0]]):
+            end = (gx, gy)
+        else:
+            end = self._nearest_reachable(costmap, potential, gx, gy, tol)
+            if end is None:
+                return _fail(self._unreachable_reason(costmap, (sx, sy), (gx, gy), goal_cell, tol), potential)
+
+        # the descent starts at the end point itself, in window cell coordinates
+        end_px = (end[0] - costmap.origin_x) / costmap.resolution - 0.5 - x0
+        end_py = (end[1] - costmap.origin_y) / costmap.resolution - 0.5 - y0
+        cells = descend_potential(pot_win, (end_px, end_py))
+        if cells is None:
+            return _fail(f"no path from ({sx:.2f}, {sy:.2f}) to ({gx:.2f}, {gy:.2f}): gradient descent on "
+                         "the potential got stuck", potential)
+        cells = cells[::-1]  # robot -> end
+        wx, wy = costmap.map_to_world(cells[:, 0] + x0, cells[:, 1] + y0)
+        # the robot's exact position instead of its cell's centre
+        xs = np.concatenate(([sx], wx[1:-1], [end[0]]))
+        ys = np.concatenate(([sy], wy[1:-1], [end[1]]))
+        return PlanResult(True, _with_headings(xs, ys, gyaw), "", potential)
+
+    def _unreachable_reason(self, costmap, start, goal, goal_cell, tol):
+        """Why no point within ``tol`` [m] of ``goal`` = (x, y) [m] got a potential."""
+        (sx, sy), (gx, gy) = start, goal
+        within = f" and no point within {tol:.2f} m of it is reachable" if tol > 0.0 else ""
+        if goal_cell is None:
+            return f"the goal ({gx:.2f}, {gy:.2f}) is off the global costmap{within}"
+        cost = int(costmap.costs[goal_cell[1], goal_cell[0]])
+        blocked = cost >= INSCRIBED_INFLATED_OBSTACLE and not (cost == NO_INFORMATION and self.allow_unknown)
+        if blocked:
+            return f"the goal ({gx:.2f}, {gy:.2f}) is in an obstacle (cost {cost}){within}"
+        return f"no path from ({sx:.2f}, {sy:.2f}) to ({gx:.2f}, {gy:.2f}){within}"
+
+    @staticmethod
+    def _nearest_reachable(costmap, potential, gx, gy, tol):
+        """NavfnROS's tolerance search: the point (x, y) [m] of the grid ``goal + k * resolution``
+        in ``[-tol, tol]^2`` with a finite potential closest to the goal, or None."""
+        if tol <= 0.0:
+            return None
+        res = costmap.resolution
+        k = math.floor(2.0 * tol / res + 1e-9)
+        offsets = -tol + res * np.arange(k + 1)
+        ox, oy = np.meshgrid(offsets, offsets)
+        px = gx + ox.ravel()
+        py = gy + oy.ravel()
+        mx, my, inside = costmap.world_to_map(px, py)
+        reachable = np.zeros(px.shape, dtype=bool)
+        reachable[inside] = np.isfinite(potential[my[inside], mx[inside]])
+        if not reachable.any():
+            return None
+        d2 = np.where(reachable, (px - gx) ** 2 + (py - gy) ** 2, np.inf)
+        best = int(np.argmin(d2))
+        return float(px[best]), float(py[best])
+
+
+def _with_headings(xs, ys, goal_yaw):
+    """(N, 3) poses: each yaw [rad] points at the next distinct point; the last has ``goal_yaw``."""
+    dx = np.diff(xs)
+    dy = np.diff(ys)
+    yaw = np.arctan2(dy, dx)
+    moving = np.hypot(dx, dy) > 1e-9
+    if len(yaw):
+        # a repeated point keeps the heading of the next real step (or the goal's)
+        idx = np.where(moving, np.arange(len(yaw)), len(yaw))
+        idx = np.minimum.accumulate(idx[::-1])[::-1]
+        yaw = np.append(yaw, goal_yaw)[idx]
+    return np.column_stack((xs, ys, np.append(yaw, goal_yaw)))
