@@ -1,0 +1,613 @@
+"""costmap_2d's layers in numpy: static map, obstacles from sensors, inflation (ROS-free).
+
+The seed configures its costmaps with the flat, pre-Hydro parameters (``static_map``,
+``observation_sources``, ``inflation_radius`` ... in one namespace); the layers here give those
+parameters the meaning the layered costmap_2d gives them:
+
+- :class:`StaticLayer` turns a ``nav_msgs/OccupancyGrid``'s data into costs (trinary).
+- :class:`ObstacleLayer` keeps its own grid of obstacles marked and cleared by sensor
+  observations (points in the costmap's global frame plus the sensor origin).
+- :class:`InflationLayer` spreads the lethal cells of the master grid by the robot's size.
+- :class:`LayeredCostmap` owns the master :class:`~move_base.costmap_2d.Costmap2D` and combines
+  them on each ``update``: static (overwrite) -> obstacles (maximum) -> inflation.
+
+:func:`footprint_cost` is base_local_planner's CostmapModel::footprintCost on any Costmap2D.
+
+Frames and units: every position is in the costmap's global frame [m] (x forward, y left,
+REP 103), times are seconds, angles radians.
+"""
+
+import logging
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import ndimage
+
+from move_base.costmap_2d import (
+    FREE_SPACE,
+    INSCRIBED_INFLATED_OBSTACLE,
+    LETHAL_OBSTACLE,
+    NO_INFORMATION,
+    Costmap2D,
+)
+from move_base.footprint import circumscribed_radius, inscribed_radius, transform_footprint
+
+log = logging.getLogger(__name__)
+
+
+# --- line rasterisation ------------------------------------------------------------------------
+def bresenham_cells(x0, y0, x1, y1, include_end=True):
+    """Cells of the lines from cells (x0, y0) to (x1, y1), all lines at once (integer arrays of
+    equal length, or scalars).
+
+    The cells are those of costmap_2d's bresenham2D / base_local_planner's LineIterator: along the
+    dominant axis one cell per step, the minor axis advancing when the error term, started at
+    half the dominant length (integer division), passes the dominant length. ``include_end``
+    (bool or boolean array per line) keeps the end cell (x1, y1).
+
+    Returns (line_index, x, y): int64 arrays, the cells of each line in order from its start.
+    """
+    x0 = np.atleast_1d(np.asarray(x0, dtype=np.int64))
+    y0 = np.atleast_1d(np.asarray(y0, dtype=np.int64))
+    x1 = np.atleast_1d(np.asarray(x1, dtype=np.int64))
+    y1 = np.atleast_1d(np.asarray(y1, dtype=np.int64))
+    dx, dy = x1 - x0, y1 - y0
+    adx, ady = np.abs(dx), np.abs(dy)
+    major = np.maximum(adx, ady)  # [cells] steps along the dominant axis
+    minor = np.minimum(adx, ady)
+    count = major + np.broadcast_to(np.asarray(include_end, dtype=np.int64), major.shape)
+    line = np.repeat(np.arange(len(major)), count)
+    starts = np.cumsum(count) - count
+    k = np.arange(len(line), dtype=np.int64) - np.repeat(starts, count)  # step along the line
+    den = major[line]
+    safe = np.where(den > 0, den, 1)
+    m = np.where(den > 0, (den // 2 + k * minor[line]) // safe, 0)  # steps along the minor axis
+    x_dominant = (adx >= ady)[line]
+    sx, sy = np.sign(dx)[line], np.sign(dy)[line]
+    x = x0[line] + sx * np.where(x_dominant, k, m)
+    y = y0[line] + sy * np.where(x_dominant, m, k)
+    return line, x, y
+
+
+# --- footprint cost (base_local_planner CostmapModel) -------------------------------------------
+# a point robot (fewer than 3 footprint points): the centre cell's cost, or these verdicts
+_POINT_ROBOT_VERDICT = {NO_INFORMATION: -2.0, LETHAL_OBSTACLE: -1.0, INSCRIBED_INFLATED_OBSTACLE: -1.0}
+
+
+def footprint_cost(costmap, points_world, position=None):
+    """Cost of a footprint placed on ``costmap``: the highest cost of the cells on its outline,
+    as base_local_planner's CostmapModel::footprintCost (ROS Noetic) computes it.
+
+    Args:
+        costmap: a :class:`Costmap2D`.
+        points_world: (N, 2) footprint vertices in the costmap's frame [m], in polygon order.
+        position: optional (x, y) [m] of the robot's centre; checked first (off the map: -3),
+            and the only cell looked at when the footprint has fewer than 3 points.
+
+    Returns a float: the maximum cost (0..253) of the outline cells, or
+        -1.0 a LETHAL_OBSTACLE cell on the outline (or, for a point robot, LETHAL or INSCRIBED),
+        -2.0 a NO_INFORMATION cell on the outline,
+        -3.0 the centre or a vertex off the map.
+    The edges are walked in order (vertex i to i + 1, then last to first), each cell by cell from
+    its first vertex, and the first negative verdict met is returned, as ROS does.
+    """
+    costs = costmap.costs
+    points = np.asarray(points_world, dtype=float).reshape(-1, 2)
+    if position is not None:
+        centre = costmap.world_to_map(float(position[0]), float(position[1]))
+        if centre is None:
+            return -3.0
+        if len(points) < 3:
+            cost = int(costs[centre[1], centre[0]])
+            return _POINT_ROBOT_VERDICT.get(cost, float(cost))
+    if len(points) == 0:
+        raise ValueError("footprint_cost needs footprint points (or a position for a point robot)")
+    mx, my, inside = costmap.world_to_map(points[:, 0], points[:, 1])
+    n = len(points)
+    nxt = np.roll(np.arange(n), -1)
+    # ROS checks both vertices of an edge before costing it, edge after edge: the first edge with
+    # a vertex off the map ends the walk with -3 unless an earlier edge already returned.
+    edge_ok = inside & inside[nxt]
+    n_good = n if edge_ok.all() else int(np.argmin(edge_ok))
+    best = 0.0
+    if n_good > 0:
+        _, cx, cy = bresenham_cells(mx[:n_good], my[:n_good], mx[nxt][:n_good], my[nxt][:n_good])
+        cell_costs = costs[cy, cx]
+        bad = (cell_costs == LETHAL_OBSTACLE) | (cell_costs == NO_INFORMATION)
+        if bad.any():
+            return -1.0 if cell_costs[int(np.argmax(bad))] == LETHAL_OBSTACLE else -2.0
+        best = float(cell_costs.max())
+    if n_good < n:
+        return -3.0
+    return best
+
+
+# --- static layer ------------------------------------------------------------------------------
+class StaticLayer:
+    """Costs from a map (costmap_2d StaticLayer, trinary).
+
+    ``set_map`` takes the OccupancyGrid's int8 data (-1 unknown, 0..100 occupancy): a value
+    >= ``lethal_cost_threshold`` is LETHAL_OBSTACLE, -1 is NO_INFORMATION with
+    ``track_unknown_space`` and FREE_SPACE without, anything else FREE_SPACE. As in ROS the
+    comparison is on the value read as an unsigned byte, so other negative values are lethal.
+    """
+
+    def __init__(self, lethal_cost_threshold=100, track_unknown_space=False):
+        self.lethal_cost_threshold = int(lethal_cost_threshold)
+        self.track_unknown_space = bool(track_unknown_space)
+        self.grid = None  # Costmap2D of the map's geometry, or None before a map came
+        self.frame_id = ""
+
+    @property
+    def has_map(self):
+        return self.grid is not None
+
+    def set_map(self, data, width, height, resolution, origin_x, origin_y, frame_id=""):
+        """Take a map: ``data`` row-major int8 (height * width values), cell side ``resolution``
+        [m], corner of cell (0, 0) at (origin_x, origin_y) [m] (map's yaw assumed 0)."""
+        raw = np.asarray(data).astype(np.int8, copy=False).reshape(int(height), int(width)).view(np.uint8)
+        costs = np.full(raw.shape, FREE_SPACE, dtype=np.uint8)
+        costs[raw >= self.lethal_cost_threshold] = LETHAL_OBSTACLE
+        unknown = raw == 255  # the value -1
+        costs[unknown] = NO_INFORMATION if self.track_unknown_space else FREE_SPACE
+        grid = Costmap2D(width, height, resolution, origin_x, origin_y, default_value=FREE_SPACE)
+        grid.costs = costs
+        self.grid = grid
+        self.frame_id = frame_id
+
+    def update_costs(self, master):
+        """Write the map into the master grid (overwrite, ROS's updateWithTrueOverwrite). Same
+        geometry: copied whole; otherwise (rolling window) each master cell whose centre lies on
+        the map takes the map cell's cost, the others are left as they are."""
+        if self.grid is None:
+            return
+        g = self.grid
+        if (
+            g.costs.shape == master.costs.shape
+            and math.isclose(g.resolution, master.resolution)
+            and math.isclose(g.origin_x, master.origin_x, abs_tol=1e-9)
+            and math.isclose(g.origin_y, master.origin_y, abs_tol=1e-9)
+        ):
+            master.costs[...] = g.costs
+            return
+        # rolling window: sample the map at the master cells' centres
+        cx = master.origin_x + (np.arange(master.size_x) + 0.5) * master.resolution
+        cy = master.origin_y + (np.arange(master.size_y) + 0.5) * master.resolution
+        mx = np.floor((cx - g.origin_x) / g.resolution).astype(np.int64)
+        my = np.floor((cy - g.origin_y) / g.resolution).astype(np.int64)
+        ok_x = (mx >= 0) & (mx < g.size_x)
+        ok_y = (my >= 0) & (my < g.size_y)
+        if not ok_x.any() or not ok_y.any():
+            return
+        ix, iy = np.nonzero(ok_x)[0], np.nonzero(ok_y)[0]
+        master.costs[np.ix_(iy, ix)] = g.costs[np.ix_(my[iy], mx[ix])]
+
+
+# --- obstacle layer ----------------------------------------------------------------------------
+@dataclass
+class ObservationSource:
+    """One sensor's parameters (costmap_2d observation source; ROS defaults).
+
+    name: the source's name (for messages).
+    obstacle_range [m]: points farther than this from the sensor (3-D) do not mark.
+    raytrace_range [m]: rays clear at most this far from the sensor (in the plane).
+    min_obstacle_height, max_obstacle_height [m]: points outside these heights are dropped
+        (neither mark nor clear), as ROS's ObservationBuffer does.
+    marking, clearing: whether the source marks obstacles / clears free space.
+    observation_persistence [s]: how long an observation is kept (0: only the latest).
+    expected_update_rate [s]: longest allowed time between observations (0: not checked).
+    """
+
+    name: str
+    obstacle_range: float = 2.5
+    raytrace_range: float = 3.0
+    min_obstacle_height: float = 0.0
+    max_obstacle_height: float = 2.0
+    marking: bool = True
+    clearing: bool = False
+    observation_persistence: float = 0.0
+    expected_update_rate: float = 0.0
+
+
+@dataclass
+class Observation:
+    """One sensor reading in the costmap's global frame.
+
+    origin: (3,) sensor position [m].
+    points: (N, 3) real returns [m] (already filtered by height when stored in a buffer).
+    free_ends: (M, 3) points along rays that saw nothing: readings at/over the sensor's range;
+        each clears a ray of length raytrace_range in its direction and marks nothing.
+    stamp: time of the reading [s].
+    """
+
+    origin: np.ndarray
+    points: np.ndarray
+    free_ends: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    stamp: float = 0.0
+
+
+class ObservationBuffer:
+    """The recent observations of one source (costmap_2d ObservationBuffer)."""
+
+    def __init__(self, source, now=0.0):
+        self.source = source
+        self.observations = []
+        self.last_updated = float(now)  # [s] ROS starts the clock at construction
+
+    def add(self, origin, points, free_ends=None, stamp=0.0, now=None):
+        """Store a reading (see :class:`Observation`); points outside the source's height limits
+        are dropped. ``now`` [s] (default ``stamp``) is the time it arrived."""
+        src = self.source
+        points = np.asarray(points, dtype=float).reshape(-1, 3)
+        keep = (points[:, 2] >= src.min_obstacle_height) & (points[:, 2] <= src.max_obstacle_height)
+        free = np.zeros((0, 3)) if free_ends is None else np.asarray(free_ends, dtype=float).reshape(-1, 3)
+        self.observations.append(Observation(np.asarray(origin, dtype=float).reshape(3), points[keep], free, stamp))
+        self.last_updated = float(stamp if now is None else now)
+        self.purge()
+
+    def purge(self):
+        """Drop what the persistence does not keep (ROS purgeStaleObservations): with 0 only the
+        latest; otherwise those older than ``observation_persistence`` before the last update."""
+        if not self.observations:
+            return
+        keep_time = self.source.observation_persistence
+        if keep_time == 0.0:
+            self.observations = self.observations[-1:]
+        else:
+            self.observations = [o for o in self.observations if self.last_updated - o.stamp <= keep_time]
+
+    def is_current(self, now):
+        """False when ``expected_update_rate`` > 0 and no observation came for longer than it."""
+        rate = self.source.expected_update_rate
+        return rate == 0.0 or (now - self.last_updated) <= rate
+
+    def reset_last_updated(self, now):
+        self.last_updated = float(now)
+
+
+class ObstacleLayer:
+    """Obstacles seen by the sensors, on the layer's own grid (costmap_2d ObstacleLayer).
+
+    On each update every clearing observation is ray-traced first (cells on the ray from the
+    sensor to each return, cut at raytrace_range, become FREE_SPACE; the end cell of a return
+    that was not cut is left as it is), then every marking observation marks its points closer
+    than obstacle_range (3-D distance to the sensor) LETHAL_OBSTACLE. The grid starts
+    NO_INFORMATION with ``track_unknown_space`` and FREE_SPACE without; a NO_INFORMATION cell of
+    this layer does not change the master grid (see :meth:`update_costs`).
+    """
+
+    def __init__(self, sources=(), track_unknown_space=False, now=0.0):
+        self.track_unknown_space = bool(track_unknown_space)
+        self.default_value = NO_INFORMATION if self.track_unknown_space else FREE_SPACE
+        self.buffers = {s.name: ObservationBuffer(s, now) for s in sources}
+        self.grid = None
+
+    def match_size(self, master):
+        """Take the master's geometry, every cell back to the default."""
+        self.grid = Costmap2D(
+            master.size_x, master.size_y, master.resolution, master.origin_x, master.origin_y, self.default_value
+        )
+
+    def update_origin(self, origin_x, origin_y):
+        self.grid.update_origin(origin_x, origin_y)
+
+    def add_observation(self, source_name, origin, points, free_ends=None, stamp=0.0, now=None):
+        """Buffer a reading of source ``source_name`` (see :meth:`ObservationBuffer.add`)."""
+        self.buffers[source_name].add(origin, points, free_ends, stamp, now)
+
+    def is_current(self, now):
+        return all(b.is_current(now) for b in self.buffers.values())
+
+    def stale_sources(self, now):
+        """Names of the sources whose observations are older than their expected_update_rate."""
+        return [name for name, b in self.buffers.items() if not b.is_current(now)]
+
+    def reset(self, now=None):
+        """Grid back to the default; the buffers are kept, their clocks restarted (ROS reset)."""
+        if self.grid is not None:
+            self.grid.costs[...] = self.default_value
+        if now is not None:
+            for b in self.buffers.values():
+                b.reset_last_updated(now)
+
+    def update(self):
+        """Clear, then mark, with the buffered observations (ROS updateBounds)."""
+        if self.grid is None:
+            return
+        for b in self.buffers.values():
+            b.purge()
+        clearing = [(b.source, o) for b in self.buffers.values() if b.source.clearing for o in b.observations]
+        marking = [(b.source, o) for b in self.buffers.values() if b.source.marking for o in b.observations]
+        if clearing:
+            self._raytrace(clearing)
+        if marking:
+            self._mark(marking)
+
+    def _raytrace(self, clearing):
+        g = self.grid
+        starts, ends, include_end = [], [], []
+        for src, obs in clearing:
+            ox, oy = obs.origin[0], obs.origin[1]
+            if g.world_to_map(ox, oy) is None:
+                log.warning(
+                    "the origin of sensor %s at (%.2f, %.2f) is off the costmap: it cannot clear", src.name, ox, oy
+                )
+                continue
+            rr = src.raytrace_range
+            # real returns: cut at raytrace_range; the end cell is cleared only when cut
+            d = obs.points[:, :2] - obs.origin[:2]
+            length = np.hypot(d[:, 0], d[:, 1])
+            cut = length > rr
+            scale = np.where(cut, rr / np.where(length > 0, length, 1.0), 1.0)
+            ends.append(obs.origin[:2] + d * scale[:, None])
+            include_end.append(cut)
+            # rays without a return: raytrace_range long, end cell cleared
+            f = obs.free_ends[:, :2] - obs.origin[:2]
+            flen = np.hypot(f[:, 0], f[:, 1])
+            fok = flen > 0
+            ends.append(obs.origin[:2] + f[fok] * (rr / flen[fok])[:, None])
+            include_end.append(np.ones(int(fok.sum()), dtype=bool))
+            starts.append(np.repeat(obs.origin[None, :2], len(d) + int(fok.sum()), axis=0))
+        if not starts:
+            return
+        start = np.concatenate(starts)
+        end = np.concatenate(ends)
+        inc = np.concatenate(include_end)
+        if len(start) == 0:
+            return
+        res = g.resolution
+        x0 = np.floor((start[:, 0] - g.origin_x) / res).astype(np.int64)
+        y0 = np.floor((start[:, 1] - g.origin_y) / res).astype(np.int64)
+        x1 = np.floor((end[:, 0] - g.origin_x) / res).astype(np.int64)
+        y1 = np.floor((end[:, 1] - g.origin_y) / res).astype(np.int64)
+        _, cx, cy = bresenham_cells(x0, y0, x1, y1, inc)
+        on = (cx >= 0) & (cy >= 0) & (cx < g.size_x) & (cy < g.size_y)
+        g.costs[cy[on], cx[on]] = FREE_SPACE
+
+    def _mark(self, marking):
+        g = self.grid
+        for src, obs in marking:
+            p = obs.points
+            if len(p) == 0:
+                continue
+            sq = np.sum((p - obs.origin) ** 2, axis=1)
+            near = sq < src.obstacle_range * src.obstacle_range
+            mx, my, inside = g.world_to_map(p[near, 0], p[near, 1])
+            g.costs[my[inside], mx[inside]] = LETHAL_OBSTACLE
+
+    def update_costs(self, master):
+        """Combine into the master grid by maximum, as ROS's updateWithMax: cells of this layer at
+        NO_INFORMATION are skipped; a master cell at NO_INFORMATION takes this layer's cost."""
+        if self.grid is None:
+            return
+        mine = self.grid.costs
+        old = master.costs
+        write = (mine != NO_INFORMATION) & ((old == NO_INFORMATION) | (old < mine))
+        old[write] = mine[write]
+
+    def clear_outside(self, x, y, size):
+        """ROS ClearCostmapRecovery on this layer: every cell outside the square of side ``size``
+        [m] centred on (x, y) [m] becomes NO_INFORMATION (no say in the master grid). The kept
+        window is the cells strictly between the corner cells (ROS's ``x > start_x && x < end_x``),
+        corner cells by truncation (worldToMapNoBounds)."""
+        g = self.grid
+        if g is None:
+            return
+        sx, sy = g.world_to_map_no_bounds(x - size / 2.0, y - size / 2.0)
+        ex, ey = g.world_to_map_no_bounds(x - size / 2.0 + size, y - size / 2.0 + size)
+        ix = np.arange(g.size_x)
+        iy = np.arange(g.size_y)
+        keep = ((iy > sy) & (iy < ey))[:, None] & ((ix > sx) & (ix < ex))[None, :]
+        g.costs[~keep] = NO_INFORMATION
+
+    def clear_unknown_around(self, x, y, size):
+        """Cells at NO_INFORMATION in the square of side ``size`` [m] centred on (x, y) [m]
+        become FREE_SPACE in this layer."""
+        g = self.grid
+        if g is None:
+            return
+        window = _window(g, x, y, size)
+        sub = g.costs[window]
+        sub[sub == NO_INFORMATION] = FREE_SPACE
+
+
+def _window(grid, x, y, size):
+    """Slices (rows, cols) of the cells whose centres lie in the square of side ``size`` [m]
+    centred on (x, y) [m], clipped to the grid."""
+    res = grid.resolution
+    lo_x = math.ceil((x - size / 2.0 - grid.origin_x) / res - 0.5)
+    hi_x = math.floor((x + size / 2.0 - grid.origin_x) / res - 0.5)
+    lo_y = math.ceil((y - size / 2.0 - grid.origin_y) / res - 0.5)
+    hi_y = math.floor((y + size / 2.0 - grid.origin_y) / res - 0.5)
+    lo_x, lo_y = max(lo_x, 0), max(lo_y, 0)
+    hi_x, hi_y = min(hi_x, grid.size_x - 1), min(hi_y, grid.size_y - 1)
+    return slice(lo_y, max(hi_y + 1, lo_y)), slice(lo_x, max(hi_x + 1, lo_x))
+
+
+# --- inflation layer ---------------------------------------------------------------------------
+def inflation_cost(distance, inscribed_radius, cost_scaling_factor):
+    """costmap_2d's inflation cost at ``distance`` [m] from a lethal cell (array or scalar):
+    254 at 0, 253 up to ``inscribed_radius`` [m], beyond it
+    ``(unsigned char)(252 * exp(-cost_scaling_factor * (distance - inscribed_radius)))``."""
+    d = np.asarray(distance, dtype=float)
+    decay = (INSCRIBED_INFLATED_OBSTACLE - 1) * np.exp(-cost_scaling_factor * (d - inscribed_radius))
+    cost = np.where(
+        d == 0.0,
+        LETHAL_OBSTACLE,
+        np.where(d <= inscribed_radius, INSCRIBED_INFLATED_OBSTACLE, np.floor(np.clip(decay, 0, 252))),
+    ).astype(np.uint8)
+    return int(cost) if cost.ndim == 0 else cost
+
+
+class InflationLayer:
+    """Lethal cells of the master grid spread by the robot's size (costmap_2d InflationLayer).
+
+    A cell at distance d from the nearest lethal cell (between cell centres,
+    ``scipy.ndimage.distance_transform_edt``; d = cells * resolution as ROS computes it) gets
+    :func:`inflation_cost` (d) when d is within ROS's cell inflation radius,
+    ``ceil(inflation_radius / resolution)`` cells (costmap_2d's cellDistance: ROS inflates up to
+    that whole number of cells: 0.55 m at 0.1 m resolution reaches 6 cells, 0.6 m; the seed's
+    0.40 m is a whole number of cells at both its resolutions, 0.05 and 0.1 m).
+
+    Combination, as ROS's InflationLayer::enqueue (costmap_2d plugins/inflation_layer.cpp):
+    ``if (old_cost == NO_INFORMATION && cost >= INSCRIBED_INFLATED_OBSTACLE) grid = cost;
+    else grid = max(old_cost, cost)``, i.e. a known cell keeps the larger of its cost and the
+    inflated one, and an unknown cell (255 is the largest value) stays unknown unless it is
+    within the inscribed radius of an obstacle, where it takes 253 (or 254).
+    """
+
+    def __init__(self, inscribed_radius, inflation_radius=0.55, cost_scaling_factor=10.0):
+        self.inscribed_radius = float(inscribed_radius)
+        self.inflation_radius = float(inflation_radius)
+        self.cost_scaling_factor = float(cost_scaling_factor)
+
+    def update_costs(self, master):
+        costs = master.costs
+        lethal = costs == LETHAL_OBSTACLE
+        if not lethal.any():
+            return
+        res = master.resolution
+        cell_radius = max(0, math.ceil(self.inflation_radius / res))
+        if cell_radius == 0:
+            return
+        d_cells = ndimage.distance_transform_edt(~lethal)
+        near = (d_cells <= cell_radius) & ~lethal
+        if not near.any():
+            return
+        cost = inflation_cost(d_cells[near] * res, self.inscribed_radius, self.cost_scaling_factor)
+        cost = np.atleast_1d(cost)
+        old = costs[near]
+        new = np.where(
+            old == NO_INFORMATION,
+            np.where(cost >= INSCRIBED_INFLATED_OBSTACLE, cost, NO_INFORMATION),
+            np.maximum(old, cost),
+        )
+        costs[near] = new
+
+
+# --- the layered costmap -----------------------------------------------------------------------
+class LayeredCostmap:
+    """The master grid and its layers (costmap_2d LayeredCostmap with static, obstacle and
+    inflation layers), ROS-free.
+
+    Args:
+        size_x, size_y: grid size [cells]; resolution [m/cell]; origin_x, origin_y [m] corner
+            of cell (0, 0) (a static map, when it comes, replaces the geometry unless
+            ``rolling_window``).
+        footprint: (N, 2) padded footprint [m] in the base frame.
+        rolling_window: the grid follows the robot (re-centred on every update).
+        track_unknown_space: unknown stays NO_INFORMATION (default cost of the master and
+            obstacle grids, and the static map's -1).
+        static_map: whether a static layer is used.
+        sources: :class:`ObservationSource` list of the obstacle layer.
+        inflation_radius [m], cost_scaling_factor [1/m], lethal_cost_threshold (map value).
+        now [s]: time the observation buffers' clocks start at.
+    """
+
+    def __init__(
+        self,
+        size_x,
+        size_y,
+        resolution,
+        origin_x=0.0,
+        origin_y=0.0,
+        footprint=None,
+        rolling_window=False,
+        track_unknown_space=False,
+        static_map=True,
+        sources=(),
+        inflation_radius=0.55,
+        cost_scaling_factor=10.0,
+        lethal_cost_threshold=100,
+        now=0.0,
+    ):
+        self.rolling_window = bool(rolling_window)
+        self.track_unknown_space = bool(track_unknown_space)
+        default = NO_INFORMATION if self.track_unknown_space else FREE_SPACE
+        self.costmap = Costmap2D(size_x, size_y, resolution, origin_x, origin_y, default_value=default)
+        if footprint is None:
+            from move_base.footprint import parse_footprint
+
+            footprint = parse_footprint(None)
+        self.footprint = np.asarray(footprint, dtype=float)
+        self.inscribed_radius = inscribed_radius(self.footprint)
+        self.circumscribed_radius = circumscribed_radius(self.footprint)
+        self.static = StaticLayer(lethal_cost_threshold, track_unknown_space) if static_map else None
+        self.obstacles = ObstacleLayer(sources, track_unknown_space, now)
+        self.obstacles.match_size(self.costmap)
+        self.inflation = InflationLayer(self.inscribed_radius, inflation_radius, cost_scaling_factor)
+
+    @property
+    def layers(self):
+        return [layer for layer in (self.static, self.obstacles, self.inflation) if layer is not None]
+
+    def has_map(self):
+        """True when the static layer got its map, or there is no static layer."""
+        return self.static is None or self.static.has_map
+
+    def set_static_map(self, data, width, height, resolution, origin_x, origin_y, frame_id=""):
+        """Give the static layer its map. Without a rolling window the master grid (and the
+        obstacle layer, reset) take the map's size, resolution and origin, as ROS's StaticLayer
+        does with resizeMap."""
+        if self.static is None:
+            raise RuntimeError("this costmap has no static layer (static_map is false)")
+        self.static.set_map(data, width, height, resolution, origin_x, origin_y, frame_id)
+        if not self.rolling_window:
+            c = self.costmap
+            if (
+                c.size_x != int(width)
+                or c.size_y != int(height)
+                or c.resolution != float(resolution)
+                or c.origin_x != float(origin_x)
+                or c.origin_y != float(origin_y)
+            ):
+                c.resize(width, height, resolution, origin_x, origin_y)
+                self.obstacles.match_size(c)
+
+    def update(self, robot_x, robot_y):
+        """One costmap cycle for a robot at (robot_x, robot_y) [m]: move a rolling window, clear
+        and mark the obstacle layer, then rebuild the master grid: default, static (overwrite),
+        obstacles (maximum), inflation."""
+        c = self.costmap
+        if self.rolling_window:
+            w, h = c.size_m
+            c.update_origin(robot_x - w / 2.0, robot_y - h / 2.0)
+            self.obstacles.update_origin(robot_x - w / 2.0, robot_y - h / 2.0)
+        self.obstacles.update()
+        c.costs[...] = c.default_value
+        if self.static is not None:
+            self.static.update_costs(c)
+        self.obstacles.update_costs(c)
+        self.inflation.update_costs(c)
+
+    def reset_layers(self, now=None):
+        """Every layer back to its start (ROS resetLayers): obstacles forgotten, the master grid
+        back to the static map (or the default) with its inflation."""
+        self.obstacles.reset(now)
+        self._recombine()
+
+    def clear_outside(self, x, y, size):
+        """ClearCostmapRecovery: the obstacle layer forgets everything outside the square of side
+        ``size`` [m] centred on (x, y) [m]; the master grid is rebuilt from the layers."""
+        self.obstacles.clear_outside(x, y, size)
+        self._recombine()
+
+    def clear_unknown_around(self, x, y, size):
+        """Cells at NO_INFORMATION in the square of side ``size`` [m] centred on (x, y) [m] become
+        FREE_SPACE, in the obstacle layer (so it lasts: a free obstacle-layer cell overrides an
+        unknown static cell) and in the master grid, which is then rebuilt from the layers."""
+        self.obstacles.clear_unknown_around(x, y, size)
+        self._recombine()
+
+    def _recombine(self):
+        c = self.costmap
+        c.costs[...] = c.default_value
+        if self.static is not None:
+            self.static.update_costs(c)
+        self.obstacles.update_costs(c)
+        self.inflation.update_costs(c)
+
+    def footprint_cost(self, x, y, yaw):
+        """:func:`footprint_cost` of the robot at (x, y) [m] heading ``yaw`` [rad] on the master grid."""
+        return footprint_cost(self.costmap, transform_footprint(self.footprint, x, y, yaw), (x, y))

@@ -1,0 +1,203 @@
+"""Costmap2DROS against a private ROS master: map, tf (an upside-down laser), a scan, the
+published OccupancyGrid.
+
+Frames and topics carry a ``cmtest_`` prefix so nothing collides with other tests; nothing latched
+is left behind (the map and tf are published until received, the costmap's publishers are
+unregistered) and the shared tf buffer is cleared at the end.
+"""
+
+import math
+import threading
+
+import numpy as np
+import pytest
+
+pytestmark = pytest.mark.ros
+
+NAME = "cmtest_costmap"
+SEED_FOOTPRINT = [[-0.16, -0.16], [-0.16, 0.16], [0.19, 0.16], [0.24, 0.0], [0.19, -0.16]]
+
+
+def set_params(rospy, **overrides):
+    params = {
+        "global_frame": "/cmtest_map",
+        "robot_base_frame": "/cmtest_base",
+        "transform_tolerance": 0.5,
+        "update_frequency": 0.0,  # updates by update_now() only
+        "publish_frequency": 50.0,
+        "static_map": True,
+        "map_topic": "cmtest_map",
+        "footprint": SEED_FOOTPRINT,
+        "footprint_padding": 0.01,
+        "inflation_radius": 0.4,
+        "observation_sources": "scan",
+        "scan": {"data_type": "LaserScan", "topic": "cmtest_scan", "marking": True, "clearing": True},
+    }
+    params.update(overrides)
+    if rospy.has_param(f"~{NAME}"):
+        rospy.delete_param(f"~{NAME}")
+    rospy.set_param(f"~{NAME}", params)
+
+
+class TfPublisher:
+    """map -> base at (1.0, 1.02), yaw 0 (off a cell border: the map's float32 resolution is
+    0.0500000007 m); base -> laser 0.1 m ahead, 0.2 m up, upside down
+    (rolled by pi); published on /tf at 20 Hz with the current time."""
+
+    def __init__(self, rospy, publisher):
+        from geometry_msgs.msg import TransformStamped
+        from tf2_msgs.msg import TFMessage
+
+        self.rospy = rospy
+        self.pub = publisher("/tf", TFMessage)
+        self.msg_class = TFMessage
+
+        def tf(parent, child, xyz, quat):
+            t = TransformStamped()
+            t.header.frame_id, t.child_frame_id = parent, child
+            t.transform.translation.x, t.transform.translation.y, t.transform.translation.z = xyz
+            (t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z, t.transform.rotation.w) = quat
+            return t
+
+        self.transforms = [
+            tf("cmtest_map", "cmtest_base", (1.0, 1.02, 0.0), (0.0, 0.0, 0.0, 1.0)),
+            tf("cmtest_base", "cmtest_laser", (0.1, 0.0, 0.2), (1.0, 0.0, 0.0, 0.0)),
+        ]
+        self.stop = threading.Event()
+        self.thread = threading.Thread(target=self.run, daemon=True)
+        self.thread.start()
+
+    def run(self):
+        while not self.stop.is_set():
+            stamp = self.rospy.Time.now()
+            for t in self.transforms:
+                t.header.stamp = stamp
+            self.pub.publish(self.msg_class(transforms=self.transforms))
+            self.stop.wait(0.05)
+
+    def close(self):
+        self.stop.set()
+        self.thread.join(timeout=1.0)
+
+
+def make_map():
+    """3 x 2 m at 0.05 m, origin (0, 0), a wall in column 50 (x 2.50..2.55 m)."""
+    from nav_msgs.msg import OccupancyGrid
+
+    grid = np.zeros((40, 60), dtype=np.int8)
+    grid[:, 50] = 100
+    msg = OccupancyGrid()
+    msg.header.frame_id = "cmtest_map"
+    msg.info.resolution = 0.05
+    msg.info.width, msg.info.height = 60, 40
+    msg.info.origin.orientation.w = 1.0
+    msg.data = grid.ravel().tolist()
+    return msg
+
+
+def make_scan(rospy, stamp):
+    """Three beams in the laser frame: -90 deg 0.5 m, 0 deg nothing (range_max), +90 deg 0.8 m."""
+    from sensor_msgs.msg import LaserScan
+
+    scan = LaserScan()
+    scan.header.frame_id = "cmtest_laser"
+    scan.header.stamp = stamp
+    scan.angle_min, scan.angle_max, scan.angle_increment = -math.pi / 2, math.pi / 2, math.pi / 2
+    scan.range_min, scan.range_max = 0.02, 5.6
+    scan.ranges = [0.5, 5.6, 0.8]
+    return scan
+
+
+@pytest.fixture
+def ros_costmap(rospy_node, publisher, tf_buffer):
+    from move_base.costmap_ros import Costmap2DROS
+    from nav_msgs.msg import OccupancyGrid
+
+    from florence_harness.pytest_plugin import wait_for
+
+    rospy = rospy_node
+    set_params(rospy)
+    tfp = TfPublisher(rospy, publisher)
+    cm = Costmap2DROS(NAME, tf_buffer)
+    map_pub = publisher("cmtest_map", OccupancyGrid)
+    map_msg = make_map()
+
+    def map_arrived():
+        map_pub.publish(map_msg)
+        return cm.has_map()
+
+    try:
+        wait_for(map_arrived, 10.0, interval=0.2, what="the costmap to get its map")
+        yield rospy, cm, publisher, wait_for
+    finally:
+        cm.shutdown()
+        tfp.close()
+        rospy.delete_param(f"~{NAME}")
+        tf_buffer.clear()
+
+
+def test_costmap_ros_map_scan_and_published_grid(ros_costmap):
+    from nav_msgs.msg import OccupancyGrid
+    from sensor_msgs.msg import LaserScan
+
+    rospy, cm, publisher, wait_for = ros_costmap
+    assert (cm.global_frame, cm.base_frame) == ("cmtest_map", "cmtest_base")
+    c = cm.costmap
+    assert (c.size_x, c.size_y, c.resolution) == (60, 40, pytest.approx(0.05))  # the map's geometry
+    assert cm.inscribed_radius == pytest.approx(0.17)
+    pose = wait_for(cm.get_robot_pose, 10.0, what="the robot pose")
+    assert pose == pytest.approx((1.0, 1.02, 0.0), abs=1e-6)
+
+    cm.start()  # accept sensor data (no loop: update_frequency 0)
+    with cm.lock:
+        cm.layered.obstacles.grid.costs[20, 40] = 254  # an old obstacle at (2.0, 1.02) on the clear beam
+    scan_pub = publisher("cmtest_scan", LaserScan)
+    buffer = cm.layered.obstacles.buffers["scan"]
+
+    def scan_arrived():
+        scan_pub.publish(make_scan(rospy, rospy.Time.now() - rospy.Duration(0.1)))
+        return len(buffer.observations) > 0
+
+    wait_for(scan_arrived, 10.0, interval=0.2, what="the costmap to take a scan")
+
+    received = []
+    sub = rospy.Subscriber(rospy.resolve_name(f"~{NAME}/costmap"), OccupancyGrid, received.append)
+    try:
+        assert cm.update_now()
+        with cm.lock:
+            # upside-down laser: its -90 deg beam points to the robot's left (+y), +90 deg to the right
+            assert c.cost_at(1.1, 1.52) == 254
+            assert c.cost_at(1.1, 0.22) == 254
+            assert c.cost_at(1.1, 0.52) < 253  # where an upright laser would have put them
+            assert c.cost_at(1.1, 1.82) < 253
+            assert c.cost_at(2.02, 1.02) == 0  # cleared by the no-return beam
+            assert c.cost_at(2.52, 1.02) == 254  # the static wall stays
+            assert c.cost_at(2.47, 1.02) == 253  # 0.05 m from the wall
+            assert c.cost_at(2.32, 1.02) == 186  # 0.20 m from the wall: int(252 * exp(-0.3))
+        msg = wait_for(lambda: received[-1] if received else None, 10.0, what="the published costmap")
+    finally:
+        sub.unregister()
+    assert msg.header.frame_id == "cmtest_map"
+    assert (msg.info.width, msg.info.height, msg.info.resolution) == (60, 40, pytest.approx(0.05))
+    data = np.asarray(msg.data, dtype=np.int8).reshape(40, 60)
+    hit = c.world_to_map(1.1, 1.52)
+    assert data[hit[1], hit[0]] == 100  # lethal
+    assert data[20, 50] == 100  # wall
+    assert data[20, 49] == 99  # inscribed
+    assert data[20, 46] == 1 + (97 * 185) // 251  # 186 -> 72
+    assert data[20, 40] == 0
+    assert cm.is_current()
+
+
+def test_costmap_ros_rejects_bad_parameters(rospy_node, tf_buffer):
+    from move_base.costmap_ros import Costmap2DROS
+
+    set_params(rospy_node, resolution=-0.05)
+    try:
+        with pytest.raises(ValueError, match="resolution"):
+            Costmap2DROS(NAME, tf_buffer)
+        set_params(rospy_node, scan={"data_type": "Sonar"})
+        with pytest.raises(ValueError, match="data_type"):
+            Costmap2DROS(NAME, tf_buffer)
+    finally:
+        rospy_node.delete_param(f"~{NAME}")
