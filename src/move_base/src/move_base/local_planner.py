@@ -1,0 +1,203 @@
+"""TrajectoryPlannerROS: the local planner move_base calls every control cycle (ROS-free).
+
+Wraps :class:`move_base.trajectory_planner.TrajectoryPlanner` with the parts of
+base_local_planner's TrajectoryPlannerROS that are not ROS plumbing: the plan window
+(transformGlobalPlan's clip to the local costmap, prunePlan), the goal tolerances and their
+latch, braking (stopWithAccLimits) and the final in-place rotation to the goal yaw
+(rotateToGoal).
+
+Poses are (x [m], y [m], yaw [rad]); velocities (vx [m/s], vy [m/s], vtheta [rad/s]) in the base
+frame; REP 103.
+"""
+
+import logging
+import math
+
+import numpy as np
+
+from move_base.trajectory_planner import TrajectoryPlanner
+
+log = logging.getLogger(__name__)
+
+_ZERO = (0.0, 0.0, 0.0)
+NO_VALID_TRAJECTORY = "no valid trajectory (all samples collide)"
+
+
+def _sign(x):
+    """base_local_planner's sign: -1 for negative values, +1 otherwise (zero included)."""
+    return -1.0 if x < 0.0 else 1.0
+
+
+def _angle_diff(a, b):
+    """Signed angle [rad] from ``a`` to ``b`` in [-pi, pi] (angles::shortest_angular_distance)."""
+    d = b - a
+    return math.atan2(math.sin(d), math.cos(d))
+
+
+def clip_plan(costmap, robot_xy, plan):
+    """transformGlobalPlan's window: skip the plan poses farther than half the costmap's larger
+    side [m] from the robot, then keep poses while they stay within that distance.
+
+    Returns (window (M, 3), index of its first pose in ``plan``).
+    """
+    plan = np.asarray(plan, dtype=float).reshape(-1, 3)
+    threshold = max(costmap.size_x * costmap.resolution, costmap.size_y * costmap.resolution) / 2.0
+    near = np.hypot(plan[:, 0] - robot_xy[0], plan[:, 1] - robot_xy[1]) <= threshold
+    if not near.any():
+        return plan[:0], len(plan)
+    first = int(np.argmax(near))
+    rest = near[first:]
+    stop = first + (len(rest) if rest.all() else int(np.argmin(rest)))
+    return plan[first:stop], first
+
+
+def prune_count(robot_xy, plan):
+    """prunePlan: how many leading plan poses to drop, stopping at the first one closer than
+    1 m to the robot (all of them when none is)."""
+    plan = np.asarray(plan, dtype=float).reshape(-1, 3)
+    close = (plan[:, 0] - robot_xy[0]) ** 2 + (plan[:, 1] - robot_xy[1]) ** 2 < 1.0
+    return int(np.argmax(close)) if close.any() else len(plan)
+
+
+class LocalPlanner:
+    """TrajectoryPlannerROS without ROS.
+
+    Args:
+        params: :class:`move_base.trajectory_planner.PlannerParams`.
+        footprint: (N, 2) footprint [m] in the base frame.
+        inscribed_radius, circumscribed_radius: footprint radii [m].
+
+    Attributes:
+        global_plan: (N, 3) plan [m, m, rad] in the global frame as set, pruned as the robot
+            advances (ROS prunes its stored copy too).
+        transformed_plan: (M, 3) the window of the plan used in the last cycle (costmap frame).
+        local_plan: (K, 3) the chosen trajectory's poses of the last cycle (empty when rotating
+            to the goal yaw or when no trajectory is legal), for display.
+    """
+
+    def __init__(self, params, footprint, inscribed_radius=0.0, circumscribed_radius=0.0):
+        self.params = params
+        self.planner = TrajectoryPlanner(params, footprint, inscribed_radius, circumscribed_radius)
+        self.global_plan = np.empty((0, 3))
+        self.transformed_plan = np.empty((0, 3))
+        self.local_plan = np.empty((0, 3))
+        self._xy_tolerance_latch = False
+        self._rotating_to_goal = False
+        self._reached_goal = False
+
+    def set_plan(self, poses):
+        """New global plan (N, 3) [m, m, rad]: clears the goal latch, the goal-reached flag and the
+        oscillation / escape state."""
+        poses = np.asarray(poses, dtype=float).reshape(-1, 3)
+        self.global_plan = poses.copy()
+        self._xy_tolerance_latch = False
+        self._reached_goal = False
+        self._rotating_to_goal = False
+        self.planner.reset_oscillation_flags()
+        self.planner.escaping = False
+        return True
+
+    def is_goal_reached(self):
+        """True once the robot was within both goal tolerances (since the last :meth:`set_plan`)."""
+        return self._reached_goal
+
+    def compute_velocity(self, costmap, robot_pose, robot_vel, plan):  # noqa: PLR0911 - one return per outcome
+        """One control cycle (computeVelocityCommands).
+
+        Args:
+            costmap: the local :class:`Costmap2D`.
+            robot_pose: (x [m], y [m], yaw [rad]) in the costmap frame.
+            robot_vel: (vx [m/s], vy [m/s], vth [rad/s]) in the base frame (odometry).
+            plan: :attr:`global_plan` transformed into the costmap frame, (N, 3), same order.
+
+        Returns:
+            (ok, cmd (vx, vy, vth), reason): ok False means no command could be computed (cmd is
+            zero); reason says why (or what the robot is doing near the goal).
+        """
+        p = self.params
+        x, y, yaw = (float(v) for v in robot_pose)
+        vx, vy, vth = (float(v) for v in robot_vel)
+        plan = np.asarray(plan, dtype=float).reshape(-1, 3)
+        self.local_plan = np.empty((0, 3))
+
+        window, _ = clip_plan(costmap, (x, y), plan)
+        if p.prune_plan and len(window):
+            pruned = prune_count((x, y), window)
+            window = window[pruned:]
+            if pruned and len(self.global_plan) >= pruned:
+                self.global_plan = self.global_plan[pruned:]
+        self.transformed_plan = window
+        if len(window) == 0:
+            return False, _ZERO, "the plan has no pose within the local costmap"
+
+        goal_x, goal_y, goal_th = window[-1]
+        if self._xy_tolerance_latch or math.hypot(goal_x - x, goal_y - y) <= p.xy_goal_tolerance:
+            if p.latch_xy_goal_tolerance:
+                self._xy_tolerance_latch = True
+            angle = _angle_diff(yaw, goal_th)
+            if abs(angle) <= p.yaw_goal_tolerance:
+                self._rotating_to_goal = False
+                self._xy_tolerance_latch = False
+                self._reached_goal = True
+                return True, _ZERO, "goal reached"
+            # ROS runs a full cycle here too: it refreshes the distance fields checkTrajectory uses.
+            self.planner.find_best_command(costmap, x, y, yaw, vx, vy, vth, window[:, :2])
+            if not self._rotating_to_goal and not self._stopped(vx, vy, vth):
+                ok, cmd = self._stop_with_acc_limits(costmap, x, y, yaw, vx, vy, vth)
+                if not ok:
+                    return False, _ZERO, "cannot brake before rotating to the goal yaw: the braking trajectory collides"
+                return True, cmd, "braking before rotating to the goal yaw"
+            self._rotating_to_goal = True
+            ok, cmd = self._rotate_to_goal(costmap, x, y, yaw, vx, vy, vth, goal_th)
+            if not ok:
+                return False, _ZERO, "cannot rotate to the goal yaw: the rotation collides"
+            return True, cmd, "rotating to the goal yaw"
+
+        cmd, cost, points = self.planner.find_best_command(costmap, x, y, yaw, vx, vy, vth, window[:, :2])
+        if cost < 0:
+            log.debug("no legal trajectory (cost %.1f)", cost)
+            return False, _ZERO, NO_VALID_TRAJECTORY
+        self.local_plan = points
+        return True, cmd, ""
+
+    # --- near the goal ---------------------------------------------------------------------
+    def _stopped(self, vx, vy, vth):
+        """base_local_planner::stopped: every velocity within its stopped threshold."""
+        p = self.params
+        return (abs(vth) <= p.rot_stopped_velocity and abs(vx) <= p.trans_stopped_velocity
+                and abs(vy) <= p.trans_stopped_velocity)
+
+    def _stop_with_acc_limits(self, costmap, x, y, yaw, vx, vy, vth):
+        """stopWithAccLimits: slow every velocity toward zero by its acceleration limit over one
+        control period, if that trajectory is legal; else (False, zero)."""
+        p = self.params
+        t = p.sim_period
+        cvx = _sign(vx) * max(0.0, abs(vx) - p.acc_lim_x * t)
+        cvy = _sign(vy) * max(0.0, abs(vy) - p.acc_lim_y * t)
+        cvth = _sign(vth) * max(0.0, abs(vth) - p.acc_lim_theta * t)
+        if self.planner.check_trajectory(costmap, x, y, yaw, vx, vy, vth, cvx, cvy, cvth):
+            return True, (cvx, cvy, cvth)
+        return False, _ZERO
+
+    def _rotate_to_goal(self, costmap, x, y, yaw, vx, vy, vth, goal_th):
+        """rotateToGoal: turn toward ``goal_th`` [rad] at a speed within [min_in_place_vel_theta,
+        max_vel_theta], reachable in one control period, and slow enough to stop at the goal yaw
+        (sqrt(2 * acc_lim_theta * |error|)); min_in_place_vel_theta wins over the last two."""
+        p = self.params
+        ang_diff = _angle_diff(yaw, goal_th)
+        if ang_diff > 0.0:
+            v = min(p.max_vel_theta, max(p.min_in_place_vel_theta, ang_diff))
+        else:
+            v = max(p.min_vel_theta, min(-p.min_in_place_vel_theta, ang_diff))
+        max_acc_vel = abs(vth) + p.acc_lim_theta * p.sim_period
+        min_acc_vel = abs(vth) - p.acc_lim_theta * p.sim_period
+        v = _sign(v) * min(max(abs(v), min_acc_vel), max_acc_vel)
+        max_speed_to_stop = math.sqrt(2.0 * p.acc_lim_theta * abs(ang_diff))
+        v = _sign(v) * min(max_speed_to_stop, abs(v))
+        if v > 0.0:
+            v = min(p.max_vel_theta, max(p.min_in_place_vel_theta, v))
+        else:
+            v = max(p.min_vel_theta, min(-p.min_in_place_vel_theta, v))
+        if self.planner.check_trajectory(costmap, x, y, yaw, vx, vy, vth, 0.0, 0.0, v):
+            return True, (0.0, 0.0, v)
+        return False, _ZERO

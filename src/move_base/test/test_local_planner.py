@@ -1,0 +1,252 @@
+"""Tests of move_base.local_planner (TrajectoryPlannerROS without ROS)."""
+
+import math
+import time
+
+import numpy as np
+import pytest
+from move_base.costmap_2d import LETHAL_OBSTACLE, Costmap2D
+from move_base.local_planner import NO_VALID_TRAJECTORY, LocalPlanner, clip_plan, prune_count
+from move_base.trajectory_planner import PlannerParams
+from scipy import ndimage
+
+FOOTPRINT = np.array([[-0.17, -0.17], [-0.17, 0.17], [0.20, 0.17], [0.25, 0.0], [0.20, -0.17]])
+INSCRIBED = 0.17  # [m]
+CIRCUMSCRIBED = math.hypot(0.17, 0.17)  # [m]
+
+SEED = {
+    "max_vel_x": 0.50, "min_vel_x": 0.10, "max_rotational_vel": 1.5, "min_in_place_rotational_vel": 1.0,
+    "acc_lim_th": 3.0, "acc_lim_x": 0.50, "acc_lim_y": 0.50, "holonomic_robot": False,
+    "yaw_goal_tolerance": 0.3, "xy_goal_tolerance": 0.25, "goal_distance_bias": 0.7, "path_distance_bias": 0.70,
+    "sim_time": 1.5, "heading_lookahead": 0.325, "oscillation_reset_dist": 0.05, "vx_samples": 6,
+    "vtheta_samples": 20, "dwa": False, "controller_frequency": 5.0,
+}
+
+
+def planner(**over):
+    d = dict(SEED)
+    d.update(over)
+    return LocalPlanner(PlannerParams.from_dict(d), FOOTPRINT, INSCRIBED, CIRCUMSCRIBED)
+
+
+def line_plan(x0, y0, x1, y1, yaw_end=None, step=0.05):
+    n = max(2, round(math.hypot(x1 - x0, y1 - y0) / step) + 1)
+    yaw = math.atan2(y1 - y0, x1 - x0)
+    poses = np.column_stack([np.linspace(x0, x1, n), np.linspace(y0, y1, n), np.full(n, yaw)])
+    if yaw_end is not None:
+        poses[-1, 2] = yaw_end
+    return poses
+
+
+def inflated(lethal_mask, resolution, inscribed=INSCRIBED, inflation_radius=0.40, scaling=10.0):
+    """Costmap costs from lethal cells with costmap_2d's inflation formula (test reference)."""
+    d = ndimage.distance_transform_edt(~lethal_mask) * resolution
+    cost = np.where(d <= inflation_radius, 252.0 * np.exp(-scaling * (d - inscribed)), 0.0)
+    cost = np.where(d <= inscribed, 253, np.floor(np.minimum(cost, 252)))
+    cost = np.where(lethal_mask, LETHAL_OBSTACLE, cost)
+    return cost.astype(np.uint8)
+
+
+# --- goal tolerances ---------------------------------------------------------------------------
+
+def test_goal_reached_within_both_tolerances():
+    cm = Costmap2D(100, 100, 0.1)
+    lp = planner()
+    plan = line_plan(3.0, 5.0, 5.0, 5.0, yaw_end=0.0)
+    lp.set_plan(plan)
+    ok, cmd, reason = lp.compute_velocity(cm, (4.8, 5.1, 0.25), (0.0, 0.0, 0.0), plan)
+    assert ok and cmd == (0.0, 0.0, 0.0) and lp.is_goal_reached()
+    assert "reached" in reason
+    lp.set_plan(plan)
+    assert not lp.is_goal_reached()
+
+
+def test_outside_xy_tolerance_drives_on():
+    cm = Costmap2D(100, 100, 0.1)
+    lp = planner()
+    plan = line_plan(3.0, 5.0, 5.0, 5.0, yaw_end=0.0)
+    lp.set_plan(plan)
+    ok, cmd, _ = lp.compute_velocity(cm, (4.7, 5.0, 0.0), (0.0, 0.0, 0.0), plan)  # 0.30 m > 0.25 m
+    assert ok and cmd[0] > 0.0 and not lp.is_goal_reached()
+    assert len(lp.local_plan) > 0
+
+
+@pytest.mark.parametrize(("yaw", "goal_yaw", "sign"), [(0.0, 1.0, 1), (0.0, -1.0, -1), (-2.8, 2.8, -1),
+                                                       (2.8, -2.8, 1), (0.0, 0.4, 1)])
+def test_rotate_to_goal_direction_and_speed(yaw, goal_yaw, sign):
+    cm = Costmap2D(100, 100, 0.1)
+    lp = planner()
+    plan = line_plan(3.0, 5.0, 5.0, 5.0, yaw_end=goal_yaw)
+    lp.set_plan(plan)
+    ok, cmd, reason = lp.compute_velocity(cm, (5.0, 5.05, yaw), (0.0, 0.0, 0.0), plan)
+    assert ok and cmd[0] == 0.0 and cmd[1] == 0.0
+    assert math.copysign(1.0, cmd[2]) == sign
+    # between min_in_place_vel_theta (1.0) and max_vel_theta (1.5); from rest at most
+    # acc_lim_theta * sim_period = 0.6 rad/s reachable, but min_in_place_vel_theta wins (ROS)
+    assert abs(cmd[2]) == pytest.approx(1.0)
+    assert "rotating" in reason and not lp.is_goal_reached()
+    assert len(lp.local_plan) == 0
+
+
+def test_rotate_to_goal_speed_respects_acceleration_and_stopping_distance():
+    cm = Costmap2D(100, 100, 0.1)
+    lp = planner(min_in_place_rotational_vel=0.1, yaw_goal_tolerance=0.05)
+    plan = line_plan(3.0, 5.0, 5.0, 5.0, yaw_end=2.0)
+    lp.set_plan(plan)
+    # still turning at 1.4 rad/s: first brake by acc_lim_theta * sim_period = 3.0 * 0.2 rad/s
+    ok, cmd, reason = lp.compute_velocity(cm, (5.0, 5.0, 0.9), (0.0, 0.0, 1.4), plan)
+    assert ok and "braking" in reason
+    assert cmd[2] == pytest.approx(1.4 - 0.6)
+    # stopped (0.05 rad/s <= 0.1): rotate; error 1.0 rad asks 1.0 rad/s, reachable only 0.05 + 0.6
+    ok, cmd, reason = lp.compute_velocity(cm, (5.0, 5.0, 1.0), (0.0, 0.0, 0.05), plan)
+    assert ok and "rotating" in reason
+    assert cmd[2] == pytest.approx(0.65)
+    # rotating (latched) at 1.4 rad/s with 0.1 rad to go: can only slow to 0.8 rad/s, but must be
+    # able to stop in 0.1 rad: sqrt(2 * 3.0 * 0.1) rad/s
+    ok, cmd, reason = lp.compute_velocity(cm, (5.0, 5.0, 1.9), (0.0, 0.0, 1.4), plan)
+    assert ok and "rotating" in reason
+    assert cmd[2] == pytest.approx(math.sqrt(0.6))
+
+
+def test_braking_before_rotating_when_still_moving():
+    cm = Costmap2D(100, 100, 0.1)
+    lp = planner()
+    plan = line_plan(3.0, 5.0, 5.0, 5.0, yaw_end=1.5)
+    lp.set_plan(plan)
+    ok, cmd, reason = lp.compute_velocity(cm, (4.9, 5.0, 0.0), (0.3, 0.0, 0.0), plan)
+    assert ok and "braking" in reason
+    assert cmd == pytest.approx((0.3 - 0.5 * 0.2, 0.0, 0.0))  # acc_lim_x * sim_period
+
+
+def test_xy_goal_tolerance_latch():
+    cm = Costmap2D(100, 100, 0.1)
+    plan = line_plan(3.0, 5.0, 5.0, 5.0, yaw_end=1.5)
+    for latch, expect_rotation in ((True, True), (False, False)):
+        lp = planner(latch_xy_goal_tolerance=latch)
+        lp.set_plan(plan)
+        ok, cmd, _ = lp.compute_velocity(cm, (4.9, 5.0, 0.0), (0.0, 0.0, 0.0), plan)
+        assert ok and cmd[0] == 0.0 and cmd[2] > 0.0
+        # drifted out of the xy tolerance (0.4 m from the goal)
+        ok, cmd, reason = lp.compute_velocity(cm, (4.6, 5.0, 0.0), (0.0, 0.0, 0.0), plan)
+        assert ok
+        assert ("rotating" in reason) == expect_rotation
+        if not expect_rotation:
+            assert cmd[0] > 0.0
+        # a new plan clears the latch
+        lp.set_plan(plan)
+        ok, cmd, reason = lp.compute_velocity(cm, (4.6, 5.0, 0.0), (0.0, 0.0, 0.0), plan)
+        assert "rotating" not in reason
+
+
+# --- plan window ---------------------------------------------------------------------------------
+
+def test_prune_drops_poses_behind_until_one_within_a_metre():
+    plan = line_plan(0.0, 5.0, 8.0, 5.0)  # poses every 0.05 m
+    assert prune_count((3.0, 5.0), plan) == round((3.0 - 1.0) / 0.05) + 1  # first at x > 2.0
+    assert prune_count((3.0, 9.0), plan) == len(plan)
+    assert prune_count((0.0, 5.0), plan) == 0
+
+
+def test_clip_keeps_the_poses_within_half_the_costmap():
+    cm = Costmap2D(100, 60, 0.1)  # 10 m x 6 m: threshold 5 m
+    plan = line_plan(-4.0, 3.0, 14.0, 3.0)
+    window, first = clip_plan(cm, (5.0, 3.0), plan)
+    assert window[0, 0] >= 0.0 - 1e-9 and window[0, 0] < 0.05 + 1e-9
+    assert window[-1, 0] <= 10.0 + 1e-9 and window[-1, 0] > 9.95 - 1e-9
+    assert first == int(np.argmax(np.abs(plan[:, 0] - 5.0) <= 5.0))
+
+
+def test_compute_velocity_prunes_the_stored_plan():
+    cm = Costmap2D(100, 100, 0.1)
+    lp = planner()
+    plan = line_plan(1.0, 5.0, 8.0, 5.0)
+    lp.set_plan(plan)
+    ok, _, _ = lp.compute_velocity(cm, (3.0, 5.0, 0.0), (0.0, 0.0, 0.0), plan)
+    assert ok
+    assert len(lp.global_plan) == len(plan) - prune_count((3.0, 5.0), plan)
+    assert np.hypot(*(lp.transformed_plan[0, :2] - (3.0, 5.0))) < 1.0
+
+
+def test_empty_window_and_blocked_robot_fail_with_a_reason():
+    cm = Costmap2D(100, 100, 0.1)
+    lp = planner()
+    far = line_plan(30.0, 30.0, 40.0, 30.0)
+    lp.set_plan(far)
+    ok, cmd, reason = lp.compute_velocity(cm, (5.0, 5.0, 0.0), (0.0, 0.0, 0.0), far)
+    assert not ok and cmd == (0.0, 0.0, 0.0) and "plan" in reason
+    cm.costs[:, 70] = LETHAL_OBSTACLE  # the goal is cut off: no trajectory has a route to it
+    plan = line_plan(5.0, 5.0, 8.0, 5.0)
+    lp.set_plan(plan)
+    ok, cmd, reason = lp.compute_velocity(cm, (5.0, 5.0, 0.0), (0.0, 0.0, 0.0), plan)
+    assert not ok and cmd == (0.0, 0.0, 0.0) and reason == NO_VALID_TRAJECTORY
+
+
+# --- closed loop -----------------------------------------------------------------------------------
+
+def _drive(lp, cm, start, plan, seconds, acc=(0.5, 0.5, 3.0)):
+    """Kinematic loop at controller_frequency: the base follows each command within its
+    acceleration limits [m/s^2, m/s^2, rad/s^2]; returns the poses visited."""
+    dt = lp.params.sim_period
+    x, y, yaw = start
+    v = np.zeros(3)
+    poses = [(x, y, yaw)]
+    lp.set_plan(plan)
+    for _ in range(int(seconds / dt)):
+        ok, cmd, reason = lp.compute_velocity(cm, (x, y, yaw), tuple(v), plan)
+        assert ok, reason
+        if lp.is_goal_reached():
+            break
+        v = v + np.clip(np.asarray(cmd) - v, -np.asarray(acc) * dt, np.asarray(acc) * dt)
+        c, s = math.cos(yaw), math.sin(yaw)
+        x += (v[0] * c - v[1] * s) * dt
+        y += (v[0] * s + v[1] * c) * dt
+        yaw = math.atan2(math.sin(yaw + v[2] * dt), math.cos(yaw + v[2] * dt))
+        poses.append((x, y, yaw))
+    return np.array(poses)
+
+
+def test_corridor_drive_reaches_a_goal_three_metres_away():
+    res = 0.1
+    lethal = np.zeros((100, 100), bool)
+    lethal[40, :] = True  # walls: y in [4.0, 4.1) and [6.0, 6.1) [m]
+    lethal[60, :] = True
+    cm = Costmap2D(100, 100, res)
+    cm.costs[:] = inflated(lethal, res)
+    lp = planner()
+    goal_yaw = 1.2
+    plan = line_plan(2.0, 5.0, 5.0, 5.0, yaw_end=goal_yaw)
+    poses = _drive(lp, cm, (2.0, 5.0, 0.0), plan, seconds=30.0)
+    assert lp.is_goal_reached()
+    x, y, yaw = poses[-1]
+    assert math.hypot(x - 5.0, y - 5.0) <= 0.25 + 0.05
+    assert abs(math.atan2(math.sin(yaw - goal_yaw), math.cos(yaw - goal_yaw))) <= 0.3
+    # never closer to a wall than the footprint's circumscribed radius allows
+    assert np.all(poses[:, 1] - CIRCUMSCRIBED > 4.1) and np.all(poses[:, 1] + CIRCUMSCRIBED < 6.0)
+    assert np.all(np.diff(poses[:, 0]) > -0.05)  # no backing up in an open corridor
+
+
+def test_cycle_time_report():
+    """Not a timed assert: prints the cycle time for the brief's load (6 x 20 samples, sim_time
+    1.5 s, granularity 0.025 m, 100 x 100 cells of 0.1 m). Run with -s to see it."""
+    res = 0.1
+    lethal = np.zeros((100, 100), bool)
+    lethal[30, 20:80] = True
+    lethal[70, 20:80] = True
+    lethal[45:55, 85] = True
+    cm = Costmap2D(100, 100, res)
+    cm.costs[:] = inflated(lethal, res)
+    lp = planner()
+    t = np.linspace(0, 1, 120)
+    plan = np.column_stack([1.0 + 8.0 * t, 5.0 + 1.0 * np.sin(3 * t), np.zeros_like(t)])
+    lp.set_plan(plan)
+    lp.compute_velocity(cm, (5.0, 5.0, 0.2), (0.3, 0.0, 0.1), plan)  # compile / warm up
+    times = []
+    for i in range(100):
+        pose = (3.0 + 0.02 * i, 5.0 + 0.3 * math.sin(0.1 * i), 0.2 * math.cos(0.1 * i))
+        t0 = time.perf_counter()
+        lp.compute_velocity(cm, pose, (0.3, 0.0, 0.1), plan)
+        times.append(time.perf_counter() - t0)
+    ms = np.array(times) * 1e3
+    print(f"\nlocal planner cycle [ms]: p50 {np.percentile(ms, 50):.2f} p99 {np.percentile(ms, 99):.2f} "
+          f"max {ms.max():.2f} (K = {6 * 20 + 20 + 1} samples)")
+    assert np.all(np.isfinite(ms))
