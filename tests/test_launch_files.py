@@ -17,7 +17,6 @@ from florence_harness import workspace
 # Executables the seed's launch files start that are not written yet, with the issue
 # that delivers them. An entry must be removed once the executable exists (checked below).
 PENDING = {
-    ("move_base", "move_base"): "issue 6",
     ("openni_camera", "openni_camera_node"): "not scheduled yet (real Kinect driver)",
     ("kinect_aux", "kinect_aux_node"): "not scheduled yet (real Kinect tilt driver)",
     ("turtlebot_calibration", "calibrate.py"): "not scheduled yet",

@@ -77,6 +77,7 @@ class CycleResult:
     outcome: str | None = None
     text: str = ""
     new_plan: object = None
+    started_recovery: str | None = None
 
 
 @dataclass
@@ -127,7 +128,7 @@ class MoveBaseCore:
         self.g = None
 
     # --- one cycle ----------------------------------------------------------------------------
-    def cycle(self, now, pose):
+    def cycle(self, now, pose):  # noqa: PLR0911 - one exit per state, like ROS executeCycle
         """One control cycle at time ``now`` [s] with the robot at ``pose`` (x, y, yaw) in the global
         frame (None when tf could not tell)."""
         g = self.g
@@ -249,16 +250,21 @@ class MoveBaseCore:
             g.recovery = self.recoveries[g.recovery_index]
             log.info("running recovery behaviour %d: %s", g.recovery_index, g.recovery.name)
             g.recovery.start(now, tuple(pose))
+            started = g.recovery.name
+        else:
+            started = None
+        name = g.recovery.name
         done, cmd = g.recovery.step(now, tuple(pose))
         if not done:
-            return CycleResult(cmd=tuple(cmd) if cmd is not None else ZERO, text=f"recovery {g.recovery.name}")
+            return CycleResult(cmd=tuple(cmd) if cmd is not None else ZERO, text=f"recovery {name}",
+                               started_recovery=started)
         g.recovery = None
         g.recovery_index += 1
         g.last_oscillation_reset = now
         g.state = PLANNING
         g.planning_retries = 0
         g.last_valid_plan = now
-        return CycleResult(cmd=ZERO, text="recovery done")
+        return CycleResult(cmd=ZERO, text=f"recovery {name} done", started_recovery=started)
 
     def _final_text(self):
         g = self.g

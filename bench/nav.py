@@ -1,0 +1,194 @@
+"""move_base benchmark: random goals in the simulated apartment with the whole navigation stack.
+
+    source devel/setup.bash && /usr/bin/python3 bench/nav.py [--pairs 100] [--rtf 2.5] [--seed 1]
+
+Starts turtlebot_2dnav_control.launch sim:=true (florence_sim without people, the filters,
+map_server, amcl, move_base with the seed's parameters) on a private master and sends the robot
+to --pairs random goals in a row (each leg is one pair: from where the robot is to a random pose
+at least --clearance m from the walls and furniture of the map, reachable by ~make_plan).
+For each leg: outcome, simulated time, the planned (shortest) path length from move_base's
+~make_plan, the driven length, collisions from the simulator's bumpers.
+
+Figures and targets (issue 6): success >= 98 %, collisions 0, median time-to-goal <= 1.3 x
+(plan length / max_vel_x); move_base's CPU use at the seed's controller_frequency (5 Hz) from
+/proc. Writes bench/results/nav.json and bench/results/nav.png (every trajectory over the map).
+"""
+
+import argparse
+import json
+import math
+import os
+import sys
+import time
+import xmlrpc.client
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
+RESULTS = ROOT / "bench" / "results"
+MAP_YAML = ROOT / "maps" / "apartment" / "apartment.yaml"
+START = (1.0, 2.5, 0.0)
+MAX_VEL_X = 0.5  # [m/s] the seed's TrajectoryPlannerROS max_vel_x
+
+
+def node_pid(master_uri, name):
+    master = xmlrpc.client.ServerProxy(master_uri)
+    _, _, uri = master.lookupNode("/bench", name)
+    return xmlrpc.client.ServerProxy(uri).getPid("/bench")[2]
+
+
+def cpu_seconds(pid):
+    """User + system CPU time [s] of process ``pid``."""
+    with open(f"/proc/{pid}/stat") as f:
+        fields = f.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def random_goals(grid, count, clearance, rng):
+    """``count`` poses (x, y, yaw) on free cells at least ``clearance`` [m] from any non-free cell."""
+    from scipy.ndimage import distance_transform_edt
+
+    free = grid.data == 0
+    dist = distance_transform_edt(free) * grid.resolution
+    rows, cols = np.nonzero(dist >= clearance)
+    pick = rng.choice(len(rows), size=count, replace=True)
+    x = grid.origin[0] + (cols[pick] + 0.5) * grid.resolution
+    y = grid.origin[1] + (rows[pick] + 0.5) * grid.resolution
+    return np.column_stack([x, y, rng.uniform(-math.pi, math.pi, count)])
+
+
+def plan_length(make_plan, start, goal):
+    from geometry_msgs.msg import PoseStamped
+
+    def pose(p):
+        msg = PoseStamped()
+        msg.header.frame_id = "map"
+        msg.pose.position.x, msg.pose.position.y = p[0], p[1]
+        msg.pose.orientation.z, msg.pose.orientation.w = math.sin(p[2] / 2), math.cos(p[2] / 2)
+        return msg
+
+    plan = make_plan(start=pose(start), goal=pose(goal), tolerance=0.0).plan
+    if not plan.poses:
+        return None
+    xy = np.array([[p.pose.position.x, p.pose.position.y] for p in plan.poses])
+    return float(np.sum(np.hypot(*np.diff(xy, axis=0).T)))
+
+
+def plot(path, grid, legs, title):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    h, w = grid.data.shape
+    x0, y0 = grid.origin[:2]
+    extent = (x0, x0 + w * grid.resolution, y0, y0 + h * grid.resolution)
+    image = np.where(grid.data == 100, 0.0, np.where(grid.data == 0, 1.0, 0.7))
+    fig, ax = plt.subplots(figsize=(7, 8.5))
+    ax.imshow(image, cmap="gray", origin="lower", extent=extent, vmin=0, vmax=1)
+    for leg in legs:
+        track = np.asarray(leg["track"])
+        if len(track):
+            color = "tab:blue" if leg["state"] == "SUCCEEDED" else "tab:red"
+            ax.plot(track[:, 0], track[:, 1], "-", color=color, lw=0.8, alpha=0.6)
+        ax.plot(leg["goal"][0], leg["goal"][1], "x", color="tab:orange", ms=4)
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_title(title, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--pairs", type=int, default=100, help="random goals to drive to, one after the other")
+    parser.add_argument("--rtf", type=float, default=2.5, help="simulator real-time factor")
+    parser.add_argument("--seed", type=int, default=1, help="goal and simulator noise seed")
+    parser.add_argument("--clearance", type=float, default=0.4, help="least distance of a goal from obstacles [m]")
+    parser.add_argument("--leg-timeout", type=float, default=180.0, help="simulated seconds per goal")
+    args = parser.parse_args()
+
+    from florence_harness.processes import RosMaster, roslaunch, wait_for
+    from map_server.mapfile import load_map
+
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    grid = load_map(str(MAP_YAML))
+    rng = np.random.default_rng(args.seed)
+    master = RosMaster().start()
+    os.environ.update({k: v for k, v in master.env().items() if k.startswith("ROS_")})
+    nobody = Path(master.ros_home) / "nobody.yaml"
+    nobody.write_text("people: []\n")
+    stack = roslaunch(master, "turtlebot_control", "turtlebot_2dnav_control.launch", "sim:=true",
+                      f"people:={nobody}", f"real_time_factor:={args.rtf}", f"seed:={args.seed}",
+                      f"x:={START[0]}", f"y:={START[1]}", f"yaw:={START[2]}")
+    try:
+        import rospy
+        from nav_msgs.srv import GetPlan
+
+        from move_base.sim_nav import NavSession
+
+        rospy.init_node("bench", anonymous=False, disable_signals=True)
+        session = NavSession()
+        if not session.wait_ready(180.0):
+            raise SystemExit(f"move_base did not come up:\n{stack.output()}")
+        wait_for(lambda: session.sim_now() > 3.0, 60, what="the simulation to run")
+        time.sleep(1.0)
+        rospy.wait_for_service("/move_base/make_plan", 60)
+        make_plan = rospy.ServiceProxy("/move_base/make_plan", GetPlan)
+        pid = node_pid(master.uri, "/move_base")
+
+        legs = []
+        goals = random_goals(grid, args.pairs * 3, args.clearance, rng)
+        cpu0, sim0, wall0 = cpu_seconds(pid), session.sim_now(), time.monotonic()
+        for goal in goals:
+            if len(legs) >= args.pairs:
+                break
+            here = session.latest()
+            ideal = plan_length(make_plan, (here[1], here[2], here[3]), goal)
+            if ideal is None or ideal < 0.5:
+                continue  # not reachable from here (a closed-off corner) or no real leg
+            collisions_before = session.collisions
+            t0 = session.sim_now()
+            state, text, took, driven = session.go(*goal, sim_timeout=args.leg_timeout)
+            track = session.track(since=t0)
+            legs.append({
+                "goal": [float(v) for v in goal], "state": state, "text": text, "time_s": took,
+                "plan_length_m": ideal, "driven_m": driven, "ratio": took / (ideal / MAX_VEL_X),
+                "collisions": session.collisions - collisions_before, "track": track[::10, 1:3].round(3).tolist(),
+            })
+            print(f"{len(legs):3d}: {state:9s} {took:6.1f} s plan {ideal:5.2f} m ratio "
+                  f"{legs[-1]['ratio']:4.2f} {text if state != 'SUCCEEDED' else ''}", flush=True)
+        cpu = cpu_seconds(pid) - cpu0
+        sim_total, wall_total = session.sim_now() - sim0, time.monotonic() - wall0
+
+        ok = [leg for leg in legs if leg["state"] == "SUCCEEDED"]
+        ratios = np.array([leg["ratio"] for leg in ok])
+        result = {
+            "pairs": len(legs), "succeeded": len(ok), "success_rate": len(ok) / max(1, len(legs)),
+            "collisions": int(sum(leg["collisions"] for leg in legs)),
+            "time_ratio_median": float(np.median(ratios)) if len(ratios) else None,
+            "time_ratio_p90": float(np.percentile(ratios, 90)) if len(ratios) else None,
+            "time_ratio_max": float(ratios.max()) if len(ratios) else None,
+            "move_base_cpu_fraction": cpu / wall_total, "move_base_cpu_s_per_sim_s": cpu / sim_total,
+            "sim_time_s": sim_total, "wall_time_s": wall_total, "rtf": args.rtf, "seed": args.seed,
+            "failures": [{k: leg[k] for k in ("goal", "state", "text")} for leg in legs if leg["state"] != "SUCCEEDED"],
+            "targets": {"success_rate": 0.98, "collisions": 0, "time_ratio_median": 1.3},
+            "load_average_1min": os.getloadavg()[0],
+        }
+        plot(RESULTS / "nav.png", grid, legs,
+             f"move_base: {len(ok)}/{len(legs)} goals, {result['collisions']} collisions, median time/ideal "
+             f"{result['time_ratio_median'] or float('nan'):.2f}")
+        (RESULTS / "nav.json").write_text(json.dumps({**result, "legs": legs}, indent=1))
+        print(json.dumps(result, indent=2))
+        print(f"wrote {RESULTS / 'nav.json'} and {RESULTS / 'nav.png'}")
+        session.close()
+    finally:
+        stack.stop()
+        master.stop()
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,117 @@
+"""Send move_base goals in florence_sim and record what the robot did (tests, bench and demo).
+
+Runs inside a rospy node that the caller initialised, against a master where
+``turtlebot_2dnav_control.launch sim:=true`` runs. Times are simulated time taken from the
+simulator's ground truth stamps, so the judgement does not depend on this process's clock.
+"""
+
+import math
+import threading
+import time
+
+import actionlib
+import numpy as np
+import rospy
+from actionlib_msgs.msg import GoalStatus
+from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
+from nav_msgs.msg import Odometry
+from std_msgs.msg import UInt32
+
+STATE_NAMES = {v: k for k, v in vars(GoalStatus).items() if isinstance(v, int) and k.isupper()}
+
+
+def _yaw(q):
+    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+
+
+def make_goal(x, y, yaw, frame="map"):
+    goal = MoveBaseGoal()
+    goal.target_pose.header.frame_id = frame
+    goal.target_pose.pose.position.x, goal.target_pose.pose.position.y = float(x), float(y)
+    goal.target_pose.pose.orientation.z = math.sin(yaw / 2.0)
+    goal.target_pose.pose.orientation.w = math.cos(yaw / 2.0)
+    return goal
+
+
+class NavSession:
+    """An actionlib client of move_base plus a recorder of ground truth and collisions."""
+
+    def __init__(self, action="move_base"):
+        self.lock = threading.Lock()
+        self.truth = []  # (t [s], x [m], y [m], yaw [rad], v [m/s], w [rad/s])
+        self.collisions = 0
+        self.collision_poses = []  # ground truth (t, x, y, yaw, v, w) when the bumper count went up
+        self.client = actionlib.SimpleActionClient(action, MoveBaseAction)
+        self.subs = [
+            rospy.Subscriber("base_pose_ground_truth", Odometry, self._on_truth, queue_size=100),
+            rospy.Subscriber("collisions", UInt32, self._on_collisions, queue_size=10),
+        ]
+
+    def _on_truth(self, msg):
+        p, t = msg.pose.pose, msg.twist.twist
+        with self.lock:
+            self.truth.append((msg.header.stamp.to_sec(), p.position.x, p.position.y, _yaw(p.orientation),
+                               math.hypot(t.linear.x, t.linear.y), t.angular.z))
+
+    def _on_collisions(self, msg):
+        with self.lock:
+            if msg.data > self.collisions and self.truth:
+                self.collision_poses.append(tuple(round(v, 3) for v in self.truth[-1]))
+            self.collisions = msg.data
+
+    def close(self):
+        for sub in self.subs:
+            sub.unregister()
+
+    # --- state ---------------------------------------------------------------------------------
+    def latest(self):
+        with self.lock:
+            return self.truth[-1] if self.truth else None
+
+    def sim_now(self):
+        last = self.latest()
+        return last[0] if last else 0.0
+
+    def track(self, since=0.0):
+        with self.lock:
+            return np.array([row for row in self.truth if row[0] >= since]).reshape(-1, 6)
+
+    def wait_ready(self, timeout=120.0):
+        """Wait (wall time) for the action server and ground truth; False if they did not come."""
+        deadline = time.monotonic() + timeout
+        if not self.client.wait_for_server(rospy.Duration(timeout)):
+            return False
+        while time.monotonic() < deadline:
+            if self.latest() is not None:
+                return True
+            time.sleep(0.05)
+        return False
+
+    # --- goals ---------------------------------------------------------------------------------
+    def send(self, x, y, yaw, frame="map"):
+        self.client.send_goal(make_goal(x, y, yaw, frame))
+
+    def wait_result(self, sim_timeout, wall_timeout=None):
+        """Wait until the goal ends or ``sim_timeout`` simulated seconds pass (and, as a backstop when
+        the simulation stalls, ``wall_timeout`` wall seconds). Returns (state name, text)."""
+        start_sim = self.sim_now()
+        deadline = time.monotonic() + (wall_timeout if wall_timeout is not None else 20.0 * sim_timeout + 60.0)
+        while time.monotonic() < deadline:
+            state = self.client.get_state()
+            if state not in (GoalStatus.PENDING, GoalStatus.ACTIVE):
+                return STATE_NAMES.get(state, str(state)), self.client.get_goal_status_text()
+            if self.sim_now() - start_sim > sim_timeout:
+                return "TIMEOUT", f"no result after {sim_timeout:.0f} s of simulated time"
+            time.sleep(0.02)
+        return "TIMEOUT", f"no result after {wall_timeout} s of wall time (simulation stalled?)"
+
+    def go(self, x, y, yaw, sim_timeout=120.0, frame="map"):
+        """Send a goal and wait for its end; returns (state, text, sim seconds taken, path length [m])."""
+        t0 = self.sim_now()
+        self.send(x, y, yaw, frame)
+        state, text = self.wait_result(sim_timeout)
+        if state == "TIMEOUT":
+            self.client.cancel_all_goals()
+        track = self.track(since=t0)
+        length = float(np.sum(np.hypot(np.diff(track[:, 1]), np.diff(track[:, 2])))) if len(track) > 1 else 0.0
+        return state, text, self.sim_now() - t0, length

@@ -1,0 +1,200 @@
+"""The whole navigation stack in florence_sim's apartment: turtlebot_2dnav_control.launch sim:=true
+(simulator, filters, map_server, amcl, move_base) driven by an actionlib client, as a user would.
+
+One stack for the module (its start-up costs most); the tests run in file order and each starts
+where the robot stopped. Judged in simulated time (ground truth stamps)."""
+
+import itertools
+import math
+import time
+
+import numpy as np
+import pytest
+import yaml
+
+from florence_harness import workspace
+from florence_harness.processes import roslaunch, wait_for
+
+pytestmark = pytest.mark.ros
+
+START = (1.0, 2.5, 0.0)
+ROOMS = yaml.safe_load((workspace.root() / "maps" / "apartment" / "rooms.yaml").read_text())["rooms"]
+# An Euler circuit of the complete graph on the five rooms: every pair of hotspots once.
+CIRCUIT = ["living_room", "kitchen", "corridor", "bedroom", "bathroom", "living_room", "corridor", "bathroom",
+           "kitchen", "bedroom", "living_room"]
+XY_TOL = 0.25 + 0.1  # xy_goal_tolerance of the seed + amcl's error [m]
+YAW_TOL = 0.3 + 0.1  # yaw_goal_tolerance of the seed + amcl's error [rad]
+
+
+def hotspot(room):
+    h = ROOMS[room]["hotspot"]
+    return h["x"], h["y"], h["phi"]
+
+
+@pytest.fixture(scope="module")
+def nav(ros_master, rospy_node, tf_buffer, tmp_path_factory):
+    import rosgraph
+    from move_base.sim_nav import NavSession
+
+    master = rosgraph.Master("/pytest")
+    had_sim_time = master.hasParam("/use_sim_time")
+    nobody = tmp_path_factory.mktemp("nav") / "nobody.yaml"
+    nobody.write_text("people: []\n")
+    stack = roslaunch(ros_master, "turtlebot_control", "turtlebot_2dnav_control.launch", "sim:=true",
+                      f"people:={nobody}", "real_time_factor:=2.0", "seed:=1",
+                      f"x:={START[0]}", f"y:={START[1]}", f"yaw:={START[2]}")
+    session = NavSession()
+    try:
+        assert session.wait_ready(180.0), f"move_base did not come up:\n{stack.output()}"
+        # the costmaps need the map and a first scan; amcl its first pose
+        wait_for(lambda: master.lookupNode("/amcl") and session.sim_now() > 3.0, 60, what="the stack to settle")
+        time.sleep(1.0)  # a fresh action client's first goal can be lost while connections settle
+        yield session, stack
+    finally:
+        session.close()
+        stack.stop()
+        if not had_sim_time and master.hasParam("/use_sim_time"):
+            master.deleteParam("/use_sim_time")
+        tf_buffer.clear()
+
+
+def dump(stack):
+    return f"\n----- stack output (tail) -----\n{stack.output(8000)}"
+
+
+def call_sim(name, srv_class, **fields):
+    import rospy
+
+    rospy.wait_for_service(f"/florence_sim/{name}", 30)
+    return rospy.ServiceProxy(f"/florence_sim/{name}", srv_class)(**fields)
+
+
+def test_rejects_bad_goals_with_a_reason(nav):
+    from move_base.sim_nav import make_goal
+
+    session, stack = nav
+    cases = []
+    zero = make_goal(2.0, 3.0, 0.0)
+    zero.target_pose.pose.orientation.w = 0.0
+    cases.append((zero, "zero quaternion"))
+    long = make_goal(2.0, 3.0, 0.0)
+    long.target_pose.pose.orientation.w = 2.0
+    cases.append((long, "not a unit quaternion"))
+    nan = make_goal(math.nan, 3.0, 0.0)
+    cases.append((nan, "not finite"))
+    cases.append((make_goal(2.0, 3.0, 0.0, frame="no_such_frame"), "no_such_frame"))
+    cases.append((make_goal(50.0, 50.0, 0.0), "off the global costmap"))
+    cases.append((make_goal(5.0, 0.8, 0.0), "obstacle"))  # inside the living room | kitchen wall
+    for goal, expected in cases:
+        t0 = session.sim_now()
+        session.client.send_goal(goal)
+        state, text = session.wait_result(30.0)
+        assert state == "ABORTED" and expected in text, f"{expected!r}: {state} {text!r}{dump(stack)}"
+        assert session.sim_now() - t0 < 10.0, f"{expected!r} took {session.sim_now() - t0:.1f} s to refuse"
+    # nothing moved the robot
+    assert session.collisions == 0
+
+
+def test_every_pair_of_room_hotspots(nav):
+    session, stack = nav
+    legs = []
+    for a, b in itertools.pairwise(CIRCUIT):
+        x, y, yaw = hotspot(b)
+        state, text, took, length = session.go(x, y, yaw, sim_timeout=150.0)
+        here = session.latest()
+        err = math.hypot(here[1] - x, here[2] - y)
+        yaw_err = abs((here[3] - yaw + math.pi) % (2 * math.pi) - math.pi)
+        legs.append(f"{a} -> {b}: {state} in {took:.1f} s, {length:.1f} m, off by {err:.2f} m / {yaw_err:.2f} rad")
+        report = "\n".join(legs)
+        assert state == "SUCCEEDED", f"{report}\n{text}{dump(stack)}"
+        assert err < XY_TOL and yaw_err < YAW_TOL, f"{report}{dump(stack)}"
+        assert session.collisions == 0, f"bumped into something at {session.collision_poses}:\n{report}"
+    print("\n".join(legs))
+
+
+def test_person_stepping_into_the_corridor_is_avoided(nav):
+    import rospy
+
+    from florence_sim.msg import People
+    from florence_sim.srv import RemovePerson, SetPerson
+
+    session, stack = nav
+    people = []
+    sub = rospy.Subscriber("people_ground_truth", People, people.append, queue_size=5)
+    target = (6.6, 6.15, 0.0)  # east end of the corridor, from the living room through its door
+    t0 = session.sim_now()
+    session.send(*target)
+    # the person steps in once the robot is on its way through the door
+    wait_for(lambda: session.latest()[2] > 5.3, 120, what="the robot at the living room door")
+    assert call_sim("set_person", SetPerson, id="visitor", spec="{pose: [4.3, 5.85, 1.57]}").success
+    try:
+        state, text = session.wait_result(150.0)
+        assert state == "SUCCEEDED", f"{state}: {text}{dump(stack)}"
+        track = session.track(since=t0)
+        later = track[track[:, 2] > 5.3]
+        gap = np.hypot(later[:, 1] - 4.3, later[:, 2] - 5.85).min()
+        # the laser sees the person's legs, not the 0.2 m envelope of the body above them; the robot's
+        # body (0.17 m radius) must stay clear of that envelope all the same
+        print(f"closest pass: {gap:.2f} m between the centres of the robot and the person")
+        assert gap > 0.2 + 0.17, f"passed {gap:.2f} m from the person's centre"
+        assert session.collisions == 0
+        assert people and any(p.id == "visitor" for p in people[-1].people)
+    finally:
+        sub.unregister()
+        call_sim("remove_person", RemovePerson, id="visitor")
+
+
+def test_cancel_mid_route_stops_the_robot(nav):
+    """A cancel stops move_base's commands at once; the base then comes to rest as fast as
+    velocity_filter lets it (1.0 m/s^2 and 1.0 rad/s^2, seed 3.6): within 0.5 s from the Create's
+    0.5 m/s, and a fast turn within its speed / 1.0 rad/s^2."""
+    import rospy
+    from geometry_msgs.msg import Twist
+
+    session, _stack = nav
+    commands = []
+    sub = rospy.Subscriber("/cmd_vel_mux/input/move_base", Twist,
+                           lambda m: commands.append((session.sim_now(), m.linear.x, m.angular.z)), queue_size=50)
+    try:
+        x, y, yaw = hotspot("living_room")
+        session.send(x, y, yaw)
+        wait_for(lambda: session.latest()[4] > 0.2, 120, what="the robot driving at more than 0.2 m/s")
+        at_cancel = session.latest()
+        t_cancel = at_cancel[0]
+        session.client.cancel_goal()
+        state, text = session.wait_result(10.0)
+        assert state == "PREEMPTED", f"{state}: {text}"
+        wait_for(lambda: session.sim_now() > t_cancel + 2.5, 60, what="2.5 s of simulation after the cancel")
+    finally:
+        sub.unregister()
+    # move_base's own output is zero from the cancel on (one cycle of slack for a command in flight)
+    late = [c for c in commands if c[0] > t_cancel + 0.25 and (c[1] != 0.0 or c[2] != 0.0)]
+    assert not late, f"move_base still commanded {late[:3]} after the cancel at {t_cancel:.2f} s"
+    track = session.track(since=t_cancel)
+    driving = track[track[:, 4] > 0.02]
+    turning = track[np.abs(track[:, 5]) > 0.05]
+    linear_stop = (driving[-1, 0] - t_cancel) if len(driving) else 0.0
+    turn_stop = (turning[-1, 0] - t_cancel) if len(turning) else 0.0
+    print(f"cancel at v {at_cancel[4]:.2f} m/s, w {at_cancel[5]:.2f} rad/s: linear stop after {linear_stop:.2f} s, "
+          f"turn stop after {turn_stop:.2f} s")
+    assert linear_stop <= 0.5, f"still driving {linear_stop:.2f} s after the cancel"
+    assert turn_stop <= abs(at_cancel[5]) / 1.0 + 0.25, f"still turning {turn_stop:.2f} s after the cancel"
+
+
+def test_doorway_blocked_for_good_ends_in_recoveries_then_aborted(nav):
+    from florence_sim.srv import RemovePerson, SetPerson
+
+    session, stack = nav
+    # someone stands in the bathroom door (x 6.2..7.0 at y 6.8) and does not move
+    assert call_sim("set_person", SetPerson, id="blocker", spec="{pose: [6.6, 6.8, 0.0]}").success
+    try:
+        x, y, yaw = hotspot("bathroom")
+        state, text, took, _ = session.go(x, y, yaw, sim_timeout=240.0)
+        assert state == "ABORTED", f"{state} after {took:.0f} s: {text}{dump(stack)}"
+        assert "Failed to find a valid plan even after executing recovery behaviors" in text or \
+            "Failed to find a valid control even after executing recovery behaviors" in text, text
+        assert session.collisions == 0
+        out = stack.output(200000)
+        assert "running recovery behaviour" in out and "rotate_recovery" in out, dump(stack)
+    finally:
+        call_sim("remove_person", RemovePerson, id="blocker")
