@@ -440,3 +440,34 @@ def test_layered_footprint_cost_rotates_the_footprint():
     assert lc.footprint_cost(2.05, 2.05, 0.0) == -1.0
     # ... turned by 45 degrees the outline runs from the vertex in cell (23, 20) diagonally, missing it
     assert lc.footprint_cost(2.05, 2.05, math.pi / 4) == 0.0
+
+
+def test_polygon_cells_cover_the_inside_and_the_outline():
+    from move_base.layers import polygon_cells
+
+    grid = Costmap2D(20, 20, 0.1)
+    square = [[0.5, 0.5], [1.45, 0.5], [1.45, 1.45], [0.5, 1.45]]  # cells 5..14 each way
+    mx, my = polygon_cells(grid, square)
+    covered = np.zeros((20, 20), bool)
+    covered[my, mx] = True
+    assert covered[5:15, 5:15].all()
+    assert covered.sum() == 100
+    assert polygon_cells(grid, [[5, 5], [6, 5], [6, 6]])[0].size == 0  # off the grid
+
+
+def test_update_clears_marks_under_the_robot_footprint_only():
+    """A stale mark under the robot (costmap_2d clears the footprint) would leave the robot 'inside
+    an obstacle' and every plan from it failing; a mark just outside the footprint stays."""
+    lc = rolling()
+    lc.update(2.0, 2.0, 0.0)
+    g = lc.obstacles.grid
+    under = g.world_to_map(2.1, 2.05)
+    outside = g.world_to_map(2.45, 2.05)  # 0.45 m ahead: beyond the footprint's 0.25 m nose
+    for mx, my in (under, outside):
+        g.costs[my, mx] = LETHAL_OBSTACLE
+    lc.update(2.0, 2.0, 0.0)
+    assert g.costs[under[1], under[0]] == FREE_SPACE
+    assert g.costs[outside[1], outside[0]] == LETHAL_OBSTACLE
+    assert lc.costmap.cost_at(2.45, 2.05) == LETHAL_OBSTACLE
+    lc.update(2.0, 2.0)  # without a heading nothing is cleared (the old call)
+    assert g.costs[outside[1], outside[0]] == LETHAL_OBSTACLE

@@ -4,7 +4,6 @@ import math
 
 import numpy as np
 import pytest
-
 from move_base.footprint import (
     circumscribed_radius,
     inscribed_radius,

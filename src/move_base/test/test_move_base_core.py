@@ -5,7 +5,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import pytest
-
 from move_base.move_base_core import CLEARING, CONTROLLING, PLANNING, MoveBaseCore, MoveBaseParams
 from move_base.recovery import ClearCostmapRecovery, RotateRecovery, default_recovery_specs
 

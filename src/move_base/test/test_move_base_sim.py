@@ -191,8 +191,10 @@ def test_doorway_blocked_for_good_ends_in_recoveries_then_aborted(nav):
         x, y, yaw = hotspot("bathroom")
         state, text, took, _ = session.go(x, y, yaw, sim_timeout=240.0)
         assert state == "ABORTED", f"{state} after {took:.0f} s: {text}{dump(stack)}"
-        assert "Failed to find a valid plan even after executing recovery behaviors" in text or \
-            "Failed to find a valid control even after executing recovery behaviors" in text, text
+        # which guard ends it depends on where the robot stops: the planner finds no way round the
+        # person, the controller no trajectory, or the robot stays put past oscillation_timeout
+        assert any(f"{what} even after executing recovery behaviors" in text for what in (
+            "Failed to find a valid plan", "Failed to find a valid control", "Robot is oscillating")), text
         assert session.collisions == 0
         out = stack.output(200000)
         assert "running recovery behaviour" in out and "rotate_recovery" in out, dump(stack)

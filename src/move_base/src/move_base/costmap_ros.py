@@ -343,7 +343,7 @@ class Costmap2DROS:
             return False
         x, y, yaw = pose
         with self.lock:
-            self.layered.update(x, y)
+            self.layered.update(x, y, yaw)
         self._publish_footprint(x, y, yaw)
         if self.publish_frequency > 0.0:
             now = self._rospy.get_time()

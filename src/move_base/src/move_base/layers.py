@@ -124,6 +124,32 @@ def footprint_cost(costmap, points_world, position=None):
 
 
 # --- static layer ------------------------------------------------------------------------------
+def polygon_cells(grid, points_world):
+    """Cells (mx, my) of ``grid`` covered by the polygon ``points_world`` (N, 2) [m]: those whose
+    centre lies inside it, plus its outline (costmap_2d's convexFillCells includes the outline),
+    clipped to the grid. Returns two int64 arrays."""
+    pts = np.asarray(points_world, dtype=float)
+    cx, cy, _ = grid.world_to_map(pts[:, 0], pts[:, 1])
+    lo_x, hi_x = max(int(cx.min()), 0), min(int(cx.max()), grid.size_x - 1)
+    lo_y, hi_y = max(int(cy.min()), 0), min(int(cy.max()), grid.size_y - 1)
+    if lo_x > hi_x or lo_y > hi_y:
+        return np.empty(0, np.int64), np.empty(0, np.int64)
+    mx, my = np.meshgrid(np.arange(lo_x, hi_x + 1), np.arange(lo_y, hi_y + 1))
+    wx, wy = grid.map_to_world(mx.ravel(), my.ravel())
+    # crossing-number test of each cell centre against every edge
+    x1, y1 = pts[:, 0], pts[:, 1]
+    x2, y2 = np.roll(x1, -1), np.roll(y1, -1)
+    py = wy[:, None]
+    straddles = (y1 <= py) != (y2 <= py)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x_cross = x1 + (py - y1) * (x2 - x1) / (y2 - y1)
+    inside = np.count_nonzero(straddles & (wx[:, None] < x_cross), axis=1) % 2 == 1
+    ox, oy = mx.ravel()[inside], my.ravel()[inside]
+    _, lx, ly = bresenham_cells(cx, cy, np.roll(cx, -1), np.roll(cy, -1))
+    keep = (lx >= 0) & (ly >= 0) & (lx < grid.size_x) & (ly < grid.size_y)
+    return np.concatenate([ox, lx[keep]]), np.concatenate([oy, ly[keep]])
+
+
 class StaticLayer:
     """Costs from a map (costmap_2d StaticLayer, trinary).
 
@@ -565,9 +591,11 @@ class LayeredCostmap:
                 c.resize(width, height, resolution, origin_x, origin_y)
                 self.obstacles.match_size(c)
 
-    def update(self, robot_x, robot_y):
+    def update(self, robot_x, robot_y, robot_yaw=None):
         """One costmap cycle for a robot at (robot_x, robot_y) [m]: move a rolling window, clear
-        and mark the obstacle layer, then rebuild the master grid: default, static (overwrite),
+        and mark the obstacle layer, clear the robot's footprint in it (heading ``robot_yaw``
+        [rad]; costmap_2d clears the cells under the robot: whatever is there is the robot
+        itself or a stale mark), then rebuild the master grid: default, static (overwrite),
         obstacles (maximum), inflation."""
         c = self.costmap
         if self.rolling_window:
@@ -575,6 +603,10 @@ class LayeredCostmap:
             c.update_origin(robot_x - w / 2.0, robot_y - h / 2.0)
             self.obstacles.update_origin(robot_x - w / 2.0, robot_y - h / 2.0)
         self.obstacles.update()
+        if robot_yaw is not None and self.obstacles.grid is not None:
+            grid = self.obstacles.grid
+            mx, my = polygon_cells(grid, transform_footprint(self.footprint, robot_x, robot_y, robot_yaw))
+            grid.costs[my, mx] = FREE_SPACE
         c.costs[...] = c.default_value
         if self.static is not None:
             self.static.update_costs(c)
