@@ -18,6 +18,13 @@ and compares amcl_pose with ground truth at each estimate's time stamp:
 4. memory: the amcl process's resident set (VmRSS, peak VmHWM).
 
 Writes bench/results/amcl.json and bench/results/amcl.png (estimated vs true path over the map).
+
+    /usr/bin/python3 bench/amcl.py --offline [--seeds 1,2,3] [--length 30] [--global-seeds 1,2]
+
+runs the same tour and global localizations without ROS (amcl.sim_offline: florence_sim's core and the
+amcl core in one process, the launch file's values, repeatable per seed) and writes
+bench/results/amcl_offline.json: per seed the position / yaw RMS after convergence and the mean error
+along and across the heading (the bias), per start the distance to converge.
 """
 
 import argparse
@@ -116,6 +123,29 @@ def plot(path, grid, truth, est, title):
     plt.close(fig)
 
 
+def offline(args):
+    """Tracking and global localization in-process (amcl.sim_offline); returns the result dict."""
+    from amcl.sim_offline import global_starts, launch_params, run_global, run_tracking
+
+    params = launch_params()
+    tracking = {}
+    for seed in (int(s) for s in args.seeds.split(",")):
+        tracking[seed] = run_tracking(params, length=args.length, sim_seed=seed, amcl_seed=seed).tracking_summary()
+        print(f"tracking seed {seed}: {json.dumps(tracking[seed])}", flush=True)
+    trials = []
+    for seed in (int(s) for s in args.global_seeds.split(",")) if args.global_seeds else ():
+        for i, start in enumerate(global_starts()):
+            run, at = run_global(params, i, sim_seed=seed, amcl_seed=seed + 100, max_drive=args.global_max)
+            trials.append({"seed": seed, "start_pose": [round(v, 2) for v in start], "distance_to_converge_m": at,
+                           "driven_m": run.travelled[-1] if run.travelled else 0.0})
+            print(f"global seed {seed} start {i}: {trials[-1]}", flush=True)
+    within = [t for t in trials if t["distance_to_converge_m"] is not None and t["distance_to_converge_m"] <= 10.0]
+    return {"command": "bench/amcl.py " + " ".join(sys.argv[1:]), "tracking": tracking,
+            "global_localization": {"trials": trials, "converged_within_10_m": f"{len(within)}/{len(trials)}"},
+            "note": "offline: florence_sim core + amcl core in one process, apartment without people, "
+                    "amcl_turtlebot_control.launch values; errors after convergence (0.1 m / 5 deg)"}
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--length", type=float, default=30.0, help="tour length [m]")
@@ -124,7 +154,16 @@ def main():
     parser.add_argument("--with-people", action="store_true", help="the apartment's two walking people")
     parser.add_argument("--global-max", type=float, default=15.0, help="longest drive per global localization [m]")
     parser.add_argument("--global-trials", type=int, default=3, help="global localization trials")
+    parser.add_argument("--offline", action="store_true", help="in-process evaluation without ROS (amcl.sim_offline)")
+    parser.add_argument("--seeds", default="1,2,3", help="--offline: simulator seeds of the tracking runs")
+    parser.add_argument("--global-seeds", default="1,2", help="--offline: seeds of the global runs (8 starts each)")
     args = parser.parse_args()
+    if args.offline:
+        RESULTS.mkdir(parents=True, exist_ok=True)
+        result = offline(args)
+        (RESULTS / "amcl_offline.json").write_text(json.dumps(result, indent=2))
+        print(f"wrote {RESULTS / 'amcl_offline.json'}")
+        return
 
     from florence_harness.processes import ManagedProcess, RosMaster, roslaunch, wait_for
 

@@ -189,3 +189,26 @@ def test_yaw_wraps_into_one_cluster():
 def test_bad_parameters_are_named(field, kw):
     with pytest.raises(ValueError, match=field):
         FilterParams(**kw).validate()
+
+
+@pytest.mark.parametrize("wait", [False, True])
+def test_recovery_waits_for_a_converged_set(wait):
+    """Regression (issue 5 follow-up): after global localization ROS seeds w_slow with the spread set's low
+    likelihood; a set that then converges on a wrong pose (p 8, later 4) stays above it and never draws random
+    poses. With recovery_wait_converged the averages start at the converged set, and the drop fires."""
+    pf = ParticleFilter(FilterParams(min_particles=100, max_particles=400, recovery_alpha_slow=0.001,
+                                     recovery_alpha_fast=0.1, recovery_mean_likelihood=True,
+                                     recovery_wait_converged=wait), np.random.default_rng(0))
+    pf.particles = np.random.default_rng(1).uniform([0, 0, -3], [10, 10, 3], (400, 3))
+    pf.weights = np.full(400, 1 / 400)
+    pf.waiting = True  # as after init_uniform
+    pf.update_sensor(np.full(400, 2.0))  # spread set: mean likelihood 2
+    assert (pf.w_slow == pytest.approx(2.0)) != wait
+    pf.particles = np.random.default_rng(2).normal([5, 5, 0], [0.05, 0.05, 0.02], (400, 3))  # converged (wrongly)
+    pf.update_sensor(np.full(400, 8.0))
+    assert pf.w_slow == pytest.approx(8.0 if wait else 2.006)
+    for _ in range(10):
+        pf.update_sensor(np.full(400, 4.0))
+    # 1 - w_fast / w_slow: w_fast ~ 4 + 4 * 0.9^10 = 5.4; w_slow ~ 8 (waiting) or ~2 (ROS)
+    assert (pf.random_fraction() > 0.25) == wait
+    assert pf.random_fraction() == 0.0 or wait

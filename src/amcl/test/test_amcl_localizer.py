@@ -73,6 +73,20 @@ def test_resample_interval_counts_updates():
     assert flags == [False, False, True, False, False, True]
 
 
+def test_selective_resampling_still_reports_every_interval():
+    """Regression: with selective_resampling the node published amcl_pose only when the set was actually
+    resampled (rarely, once converged); ROS sets its "resampled" flag every resample_interval updates."""
+    loc = make_localizer(resample_interval=2, selective_resampling=True)
+    loc.set_pose([2.0, 1.5, 0.0], np.diag([0.01, 0.01, 0.01]))
+    ranges = np.full(BEARINGS.shape, 5.6)  # no returns: every particle weighs the same, N_eff = N
+    flags = []
+    for _ in range(6):
+        loc.request_nomotion_update()
+        flags.append(loc.process_scan(np.array([0.0, 0.0, 0.0]), LASER_XY, BEARINGS, ranges, 0.02, 5.6).resampled)
+    assert flags == [False, True, False, True, False, True]
+    assert len(loc.pf) == 2000  # the set was kept (not resampled down to the KLD bound)
+
+
 @pytest.mark.parametrize(("ranges", "reason"), [
     (np.array([]), "0 ranges"),
     (np.full(683, np.nan), "only NaN"),
@@ -183,4 +197,4 @@ def test_bad_config_is_named():
     with pytest.raises(ValueError, match="odom_alpha3"):
         AmclConfig(odom_alphas=(0.1, 0.1, -1.0, 0.1, 0.1)).validate()
     with pytest.raises(ValueError, match="laser_model_type"):
-        AmclConfig(laser_model_type="likelihood_field_prob").validate()
+        AmclConfig(laser_model_type="likelihood_field_probability").validate()

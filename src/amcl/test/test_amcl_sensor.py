@@ -9,7 +9,9 @@ from amcl.sensor import (
     OccupancyMap,
     beam_weights,
     beams_in_base,
+    likelihood_field_prob_weights,
     likelihood_field_weights,
+    sensor_weights,
     subsample_beams,
 )
 
@@ -139,16 +141,71 @@ def test_upside_down_laser_mirrors_bearings():
 
 
 def test_interpolated_distance_measures_to_the_surface():
-    """A wall occupying cells x >= 1.5 (cell 15 of 0.1 m): the surface is at x = 1.5 exactly."""
+    """A wall occupying cells x >= 1.5 (cells 15.. of 0.1 m): the surface runs through the outermost
+    occupied cells' centres, x = 1.55; inside the wall the distance is the depth below it."""
     data = np.zeros((20, 20), dtype=np.int8)
     data[:, 15:] = 100
     omap = OccupancyMap(data, 0.1, (0.0, 0.0))
-    xs = np.array([1.5, 1.45, 1.3, 1.12, 0.8])
+    xs = np.array([1.55, 1.5, 1.45, 1.3, 1.12, 0.8])
     d = omap.distance_interpolated(xs, np.full(xs.shape, 1.0))
-    np.testing.assert_allclose(d, 1.5 - xs, atol=1e-6)
-    # ROS's lookup: centre-to-centre distance of the cells, quantised and half a cell long.
+    np.testing.assert_allclose(d, 1.55 - xs, atol=1e-6)
+    # Regression: endpoints behind the surface scored like hits (0.05 everywhere inside the wall).
+    inside = np.array([1.6, 1.75, 1.85])
+    np.testing.assert_allclose(omap.distance_interpolated(inside, np.full(3, 1.0)), inside - 1.55, atol=1e-6)
+    # ROS's lookup: centre-to-centre distance of the cells, quantised; 0 anywhere inside the wall.
     assert omap.distance_at(np.array([1.45]), np.array([1.0]))[0] == pytest.approx(0.1)
+    assert omap.distance_at(np.array([1.85]), np.array([1.0]))[0] == 0.0
     assert omap.distance_interpolated(np.array([100.0]), np.array([1.0]))[0] == 2.0  # off the map: the cap
+
+
+def rasterise_boxes(boxes, res, size):
+    """Occupancy grid (origin (0, 0)) as florence_sim's generate_map makes it: a cell is occupied when its
+    centre lies inside a box (x0, y0, x1, y1) or within half a cell of it."""
+    ny, nx = round(size[1] / res), round(size[0] / res)
+    cx, cy = np.meshgrid((np.arange(nx) + 0.5) * res, (np.arange(ny) + 0.5) * res)
+    data = np.zeros((ny, nx), dtype=np.int8)
+    for x0, y0, x1, y1 in boxes:
+        gap = np.hypot(np.maximum(np.maximum(x0 - cx, cx - x1), 0), np.maximum(np.maximum(y0 - cy, cy - y1), 0))
+        data[gap < res / 2] = 100
+    return data
+
+
+def cast_boxes(boxes, origin, angles, range_max=5.6):
+    """Exact ranges from origin (x, y) along angles [rad] to axis-aligned boxes (slab method)."""
+    dx, dy = np.cos(angles), np.sin(angles)
+    best = np.full(angles.shape, np.inf)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for x0, y0, x1, y1 in boxes:
+            tx = np.sort(np.stack([(x0 - origin[0]) / dx, (x1 - origin[0]) / dx]), axis=0)
+            ty = np.sort(np.stack([(y0 - origin[1]) / dy, (y1 - origin[1]) / dy]), axis=0)
+            t_in = np.maximum(np.nan_to_num(tx[0], nan=-np.inf), np.nan_to_num(ty[0], nan=-np.inf))
+            t_out = np.minimum(np.nan_to_num(tx[1], nan=np.inf), np.nan_to_num(ty[1], nan=np.inf))
+            hit = (t_in <= t_out) & (t_in > 0)
+            best = np.where(hit, np.minimum(best, t_in), best)
+    return np.where(best < range_max, best, np.inf)
+
+
+def test_interpolated_field_has_no_bias_towards_a_wall_ahead():
+    """Regression (issue 5 follow-up): the robot faces a thick wall 1.5 m ahead in a corridor; the map is
+    rasterised from the true geometry with the wall at 20 sub-cell positions. The likelihood's peak along
+    the heading must sit on the true pose: the edge-of-cell field put it 1-2 cm off, because it made walls
+    half a cell thick and scored endpoints behind the surface like hits."""
+    res, laser_xy = 0.05, np.zeros(2)
+    bearings = np.linspace(-1.5, 1.5, 61)
+    params = LaserParams(z_hit=0.5, z_rand=0.5, sigma_hit=0.1, interpolate=True)
+    shifts = np.arange(-0.05, 0.0501, 0.002)
+    peaks = []
+    for offset in np.linspace(0.0, res, 20, endpoint=False):
+        wall_x = 3.0 + offset
+        boxes = [(wall_x, 0.0, wall_x + 0.3, 3.0), (0.0, 0.0, 4.0, 0.9), (0.0, 2.1, 4.0, 3.0)]
+        omap = OccupancyMap(rasterise_boxes(boxes, res, (4.0, 3.0)), res, (0.0, 0.0))
+        truth = np.array([wall_x - 1.5, 1.5, 0.0])
+        ranges = cast_boxes(boxes, truth[:2], bearings)
+        particles = truth + np.column_stack([shifts, np.zeros_like(shifts), np.zeros_like(shifts)])
+        w = likelihood_field_weights(particles, omap, laser_xy, bearings, ranges, 5.6, params)
+        peaks.append(shifts[np.argmax(w)])
+    assert abs(np.mean(peaks)) < 0.004, peaks
+    assert np.max(np.abs(peaks)) <= 0.026, peaks
 
 
 def test_interpolated_field_prefers_the_true_pose_to_sub_cell_precision():
@@ -161,3 +218,22 @@ def test_interpolated_field_prefers_the_true_pose_to_sub_cell_precision():
     shifts = np.array([[dx, 0.0, 0.0] for dx in np.linspace(-0.1, 0.1, 21)])
     w = likelihood_field_weights(truth + shifts, omap, laser_xy, bearings, ranges, 5.6, params)
     assert abs(shifts[np.argmax(w), 0]) <= 0.03
+
+
+def test_likelihood_field_prob_multiplies_the_beams():
+    """ROS's likelihood_field_prob: p = prod(pz) over beams with a return, by hand for two beams."""
+    omap = room_map()
+    params = LaserParams(z_hit=0.8, z_rand=0.2, sigma_hit=0.1)
+    # From (0, 0.5) facing +x: a beam of 1.0 m ends at x = 1.0 (cell centre 0.975 .. distance to the box
+    # at x >= 2.0 is 1.0 m, capped field 2.0); a beam of 0.95 m to -y ends on the bottom wall's cells.
+    particle = np.array([[0.0, 0.5, 0.0]])
+    bearings, ranges = np.array([0.0, -math.pi / 2]), np.array([1.0, 1.45])
+    d = omap.distance_at(np.array([1.0, 0.0]), np.array([0.5, -0.95]))
+    pz = 0.8 * np.exp(-d**2 / (2 * 0.1**2)) + 0.2 / 5.6
+    w = likelihood_field_prob_weights(particle, omap, np.zeros(2), bearings, ranges, 5.6, params)
+    assert w[0] == pytest.approx(pz[0] * pz[1])
+    assert sensor_weights("likelihood_field_prob", particle, omap, np.zeros(2), bearings, ranges, 5.6, params)[0] \
+        == pytest.approx(w[0])
+    # no usable beam: weight 1 (the particle keeps its weight), as the other models
+    assert likelihood_field_prob_weights(particle, omap, np.zeros(2), bearings, np.array([np.nan, 5.6]), 5.6,
+                                         params).tolist() == [1.0]

@@ -11,7 +11,8 @@ amcl's (laserReceived):
   or when a no-motion update was requested; the motion model then moves the particles by
   the whole odometry step since that update;
 - after every sensor update the resample counter counts up and the set is resampled
-  every resample_interval-th time;
+  every resample_interval-th time (with selective_resampling only if N_eff < N/2; the estimate
+  is published every resample_interval-th update either way, like ROS);
 - the laser's range_max is min(scan range_max, laser_max_range if > 0), its range_min
   max(scan range_min, laser_min_range); readings at or below range_min count as
   range_max (ROS amcl has no min-range concept); NaN readings are left out.
@@ -68,6 +69,40 @@ class AmclConfig:
             raise ValueError(f"off_free_weight must be in [0, 1], got {self.off_free_weight}")
         if not (self.update_min_d >= 0.0 and self.update_min_a >= 0.0):
             raise ValueError("update_min_d and update_min_a must be >= 0")
+
+
+def config_from_params(get):
+    """AmclConfig from ROS amcl parameters: ``get(name, default)`` returns ``~name`` (ROS names and defaults).
+
+    The node passes ``rospy.get_param``; the offline evaluation passes a launch file's ``<param>`` values.
+    Raises ValueError naming a parameter that is out of range.
+    """
+    filt = FilterParams(
+        min_particles=int(get("min_particles", 100)), max_particles=int(get("max_particles", 5000)),
+        kld_err=float(get("kld_err", 0.01)), kld_z=float(get("kld_z", 0.99)),
+        recovery_alpha_slow=float(get("recovery_alpha_slow", 0.0)),
+        recovery_alpha_fast=float(get("recovery_alpha_fast", 0.0)),
+        resample_interval=int(get("resample_interval", 2)),
+        selective_resampling=bool(get("selective_resampling", False)),
+        recovery_mean_likelihood=bool(get("recovery_mean_likelihood", False)),
+        recovery_wait_converged=bool(get("recovery_wait_converged", False)))
+    laser = LaserParams(
+        z_hit=float(get("laser_z_hit", 0.95)), z_short=float(get("laser_z_short", 0.1)),
+        z_max=float(get("laser_z_max", 0.05)), z_rand=float(get("laser_z_rand", 0.05)),
+        sigma_hit=float(get("laser_sigma_hit", 0.2)), lambda_short=float(get("laser_lambda_short", 0.1)),
+        likelihood_max_dist=float(get("laser_likelihood_max_dist", 2.0)),
+        interpolate=bool(get("laser_likelihood_interpolate", False)))
+    config = AmclConfig(
+        filter=filt, laser=laser,
+        laser_model_type=str(get("laser_model_type", "likelihood_field")),
+        laser_max_beams=int(get("laser_max_beams", 30)),
+        laser_min_range=float(get("laser_min_range", -1.0)), laser_max_range=float(get("laser_max_range", -1.0)),
+        odom_model_type=str(get("odom_model_type", "diff")),
+        odom_alphas=tuple(float(get(f"odom_alpha{i}", 0.2)) for i in range(1, 6)),
+        update_min_d=float(get("update_min_d", 0.2)), update_min_a=float(get("update_min_a", math.pi / 6.0)),
+        off_free_weight=float(get("off_free_weight", 1.0)))
+    config.validate()
+    return config
 
 
 @dataclass
@@ -181,9 +216,11 @@ class Localizer:
                                weights * c.off_free_weight)
         self.pf.update_sensor(weights)
         self.resample_count += 1
-        resampled = False
-        if self.resample_count % c.filter.resample_interval == 0:
-            resampled = self.pf.resample(self.map)
+        # "resampled" is ROS's flag: the resample step ran (the node publishes amcl_pose then), also when
+        # selective_resampling kept the set.
+        resampled = self.resample_count % c.filter.resample_interval == 0
+        if resampled:
+            self.pf.resample(self.map)
         pose, cov, clusters = self.pf.estimate()
         self.last_estimate = (pose, cov)
         return UpdateResult(True, resampled, pose, cov, clusters)

@@ -15,6 +15,9 @@ ROS Parameters (ROS amcl names and defaults):
     ~recovery_mean_likelihood (bool, false): Florence addition: the recovery averages follow the set's
         mean sensor likelihood (Probabilistic Robotics) instead of ROS's mean divided by the particle count,
         which KLD-sampling's shrinking set inflates so that random poses are never injected (false: ROS).
+    ~recovery_wait_converged (bool, false): Florence addition: after an initialisation the recovery averages
+        start once the set has converged (all particles within 0.5 m of the mean), not from the likelihood of a
+        set spread by global_localization, which keeps w_slow so low that a wrong pose never draws random poses.
     ~initial_pose_x, ~initial_pose_y (double, 0.0, m), ~initial_pose_a (double, 0.0, rad): initial mean.
     ~initial_cov_xx, ~initial_cov_yy (double, 0.25, m^2), ~initial_cov_aa (double, (pi/12)^2, rad^2).
     ~gui_publish_rate (double, -1.0, Hz): accepted and unused, as in ROS noetic amcl (particlecloud
@@ -30,9 +33,11 @@ ROS Parameters (ROS amcl names and defaults):
     ~laser_sigma_hit (double, 0.2, m): std dev of the hit term.
     ~laser_lambda_short (double, 0.1, 1/m): exponential rate of the short term (beam model).
     ~laser_likelihood_max_dist (double, 2.0, m): cap of the likelihood field's distance.
-    ~laser_model_type (str, "likelihood_field"): "likelihood_field" or "beam".
+    ~laser_model_type (str, "likelihood_field"): "likelihood_field", "likelihood_field_prob" (ROS's product of
+        the beams' pz, without beam skipping) or "beam".
     ~laser_likelihood_interpolate (bool, false): Florence addition: the likelihood field's distance is
-        interpolated between cell centres and measured to the obstacle's surface (false: ROS's cell lookup).
+        interpolated between cell centres and signed: the surface runs through the outermost occupied cells'
+        centres and an endpoint inside an obstacle counts its depth (false: ROS's cell lookup, 0 inside).
     ~odom_model_type (str, "diff"): "diff" (ROS's original) or "diff-corrected".
     ~odom_alpha1..4 (double, 0.2): rotation/translation noise; ~odom_alpha5 (0.2): unused (omni only).
     ~odom_frame_id (str, "odom"), ~base_frame_id (str, "base_link"), ~global_frame_id (str, "map").
@@ -71,9 +76,8 @@ from sensor_msgs.msg import LaserScan
 from std_msgs.msg import Float64
 from std_srvs.srv import Empty, EmptyResponse
 
-from amcl.localizer import AmclConfig, Localizer, map_to_odom
-from amcl.particle_filter import FilterParams
-from amcl.sensor import LaserParams, beams_in_base
+from amcl.localizer import Localizer, config_from_params, map_to_odom
+from amcl.sensor import beams_in_base
 
 LOG = "amcl: "
 
@@ -89,32 +93,7 @@ def set_yaw(q, yaw):
 
 def read_config():
     """Every filter parameter from ~ with the ROS defaults (ValueError names a bad one)."""
-    g = rospy.get_param
-    filt = FilterParams(
-        min_particles=int(g("~min_particles", 100)), max_particles=int(g("~max_particles", 5000)),
-        kld_err=float(g("~kld_err", 0.01)), kld_z=float(g("~kld_z", 0.99)),
-        recovery_alpha_slow=float(g("~recovery_alpha_slow", 0.0)),
-        recovery_alpha_fast=float(g("~recovery_alpha_fast", 0.0)),
-        resample_interval=int(g("~resample_interval", 2)),
-        selective_resampling=bool(g("~selective_resampling", False)),
-        recovery_mean_likelihood=bool(g("~recovery_mean_likelihood", False)))
-    laser = LaserParams(
-        z_hit=float(g("~laser_z_hit", 0.95)), z_short=float(g("~laser_z_short", 0.1)),
-        z_max=float(g("~laser_z_max", 0.05)), z_rand=float(g("~laser_z_rand", 0.05)),
-        sigma_hit=float(g("~laser_sigma_hit", 0.2)), lambda_short=float(g("~laser_lambda_short", 0.1)),
-        likelihood_max_dist=float(g("~laser_likelihood_max_dist", 2.0)),
-        interpolate=bool(g("~laser_likelihood_interpolate", False)))
-    config = AmclConfig(
-        filter=filt, laser=laser,
-        laser_model_type=str(g("~laser_model_type", "likelihood_field")),
-        laser_max_beams=int(g("~laser_max_beams", 30)),
-        laser_min_range=float(g("~laser_min_range", -1.0)), laser_max_range=float(g("~laser_max_range", -1.0)),
-        odom_model_type=str(g("~odom_model_type", "diff")),
-        odom_alphas=tuple(float(g(f"~odom_alpha{i}", 0.2)) for i in range(1, 6)),
-        update_min_d=float(g("~update_min_d", 0.2)), update_min_a=float(g("~update_min_a", math.pi / 6.0)),
-        off_free_weight=float(g("~off_free_weight", 1.0)))
-    config.validate()
-    return config
+    return config_from_params(lambda name, default: rospy.get_param("~" + name, default))
 
 
 class AmclNode:

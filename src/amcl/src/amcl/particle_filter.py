@@ -12,6 +12,10 @@ Particles are an array [N, 3] of (x [m], y [m], yaw [rad]) with weights [N] summ
   ROS, ``kld_z`` is used as the normal quantile itself (ROS passes the 0.99 straight in).
   The draw is vectorised: max_particles candidates are drawn at once and the sequential
   stopping rule is applied to their running bin count, which gives the same distribution.
+- ``recovery_wait_converged`` (Florence addition): after an initialisation the averages start with
+  the first update of a converged set. Seeded by a set spread over the map (global localization),
+  ``w_slow`` (alpha 0.001) stays at the spread set's low likelihood for hundreds of updates, so a
+  set that converged on a wrong pose always looks better than average and no random pose is drawn.
 - Pose estimate (``estimate``): particles clustered by connected occupied histogram bins
   (yaw wraps around), the heaviest cluster's weighted mean (circular mean for yaw), and
   the covariance of the whole set (x/y block; yaw variance ``-2 ln |mean unit vector|``).
@@ -30,6 +34,7 @@ log = logging.getLogger(__name__)
 
 BIN_SIZE = (0.5, 0.5, math.radians(10.0))  # histogram bins of KLD-sampling and clustering [m, m, rad]
 MAX_CLUSTER_GRID = 4_000_000  # bins of the dense clustering grid (a 180 m x 180 m spread)
+CONVERGED_DIST = 0.5  # [m] ROS pf's dist_threshold: converged when every particle is this close to the mean
 
 
 @dataclass
@@ -45,6 +50,10 @@ class FilterParams:
     # Florence addition: Augmented MCL's w_avg as the set's mean likelihood sum(w p) (Probabilistic
     # Robotics table 8.3) instead of ROS's sum(w p) / N, which scales with 1/N (False: ROS).
     recovery_mean_likelihood: bool = False
+    # Florence addition: the recovery averages start only once the set has converged (every particle within
+    # CONVERGED_DIST of the weighted mean in x and in y, ROS's pf convergence test) after an initialisation,
+    # instead of from the first update of a spread set (False: ROS).
+    recovery_wait_converged: bool = False
 
     def validate(self):
         """Raise ValueError naming the parameter that is out of range."""
@@ -165,6 +174,7 @@ class ParticleFilter:
         self.w_slow = 0.0
         self.w_fast = 0.0
         self.n_effective = 1.0
+        self.waiting = True
 
     def __len__(self):
         return len(self.particles)
@@ -173,6 +183,12 @@ class ParticleFilter:
         self.particles = particles
         self.weights = np.full(len(particles), 1.0 / len(particles))
         self.w_slow = self.w_fast = 0.0
+        self.waiting = True  # recovery_wait_converged: no averages until the set has converged
+
+    def converged(self):
+        """True when every particle is within CONVERGED_DIST [m] of the weighted mean in x and in y (ROS)."""
+        mean = self.weights @ self.particles[:, :2]
+        return bool(np.all(np.abs(self.particles[:, :2] - mean) <= CONVERGED_DIST))
 
     def init_gaussian(self, mean, cov):
         """max_particles particles from N(mean, cov) (3x3, x/y/yaw) like ROS pf_init."""
@@ -201,6 +217,10 @@ class ParticleFilter:
         self.weights = raw / total
         self.n_effective = 1.0 / float(np.sum(self.weights**2))
         p = self.params
+        if p.recovery_wait_converged and self.waiting:
+            if not self.converged():
+                return
+            self.waiting = False
         w_avg = total if p.recovery_mean_likelihood else total / len(self)
         self.w_slow = w_avg if self.w_slow == 0.0 else self.w_slow + p.recovery_alpha_slow * (w_avg - self.w_slow)
         self.w_fast = w_avg if self.w_fast == 0.0 else self.w_fast + p.recovery_alpha_fast * (w_avg - self.w_fast)

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-LASER_MODELS = ("likelihood_field", "beam")
+LASER_MODELS = ("likelihood_field", "beam", "likelihood_field_prob")
 
 
 @dataclass
@@ -54,11 +54,21 @@ class OccupancyMap:
         self.dist = np.minimum(dist, self.max_occ_dist).astype(np.float32)  # [m]
         # The field with a one-cell border at max_occ_dist, flattened: lookups clip instead of masking.
         self._dist_padded = np.pad(self.dist, 1, constant_values=self.max_occ_dist).ravel()
-        # Signed distance at cell centres to the nearest obstacle *surface* (half a cell nearer than the
-        # nearest occupied cell's centre; -res/2 inside an obstacle), for sub-cell interpolation.
-        signed = np.where(self.occupied, -0.5, np.minimum(dist / self.resolution, 1e6) - 0.5) * self.resolution
-        self._signed_padded = np.pad(np.minimum(signed, self.max_occ_dist), 2,
-                                     constant_values=self.max_occ_dist).astype(np.float32).ravel()
+        # Signed distance field for sub-cell interpolation [m]: outside obstacles the distance to the nearest
+        # occupied cell's centre (as ROS), inside an obstacle minus the depth below its outermost cells
+        # (boundary cells 0, the next layer -res ...). An occupied cell's centre is where the surface lies on
+        # average, for a map made by a laser (the endpoint falls anywhere in the cell) as for florence_sim's
+        # generate_map (a cell is occupied when its centre is within half a cell of the obstacle); the
+        # cells' edges would make obstacles half a cell thicker. The sign keeps an endpoint that overshoots
+        # the surface from scoring like a hit: with an unsigned field every endpoint inside a thick wall is
+        # at distance 0, so a pose too far towards a wall ahead is not penalised.
+        if self.occupied.any() and not self.occupied.all():
+            depth = ndimage.distance_transform_edt(self.occupied) * self.resolution - self.resolution
+            signed = np.where(self.occupied, -depth, dist)
+        else:
+            signed = np.where(self.occupied, 0.0, dist)
+        signed = np.clip(signed, -self.max_occ_dist, self.max_occ_dist)
+        self._signed_padded = np.pad(signed, 2, constant_values=self.max_occ_dist).astype(np.float32).ravel()
         rows, cols = np.nonzero(self.free)
         self.free_cells = np.column_stack([cols, rows])  # (col, row) of every free cell
 
@@ -83,10 +93,12 @@ class OccupancyMap:
         return self._dist_padded[row * (self.width + 2) + col]
 
     def distance_interpolated(self, x, y):
-        """Distance to the nearest obstacle surface [m], bilinear between cell centres, capped at max_occ_dist.
+        """|signed distance| to the nearest obstacle surface [m], bilinear between cell centres, capped at
+        max_occ_dist.
 
-        Unlike ``distance_at`` (ROS: the cell's centre-to-centre distance), this has no bias of half
-        a cell towards obstacles and no quantisation to the cell grid.
+        The surface runs through the outermost occupied cells' centres; inside an obstacle the distance is the
+        depth below it. Unlike ``distance_at`` (ROS: the cell's centre-to-centre distance, 0 anywhere inside an
+        obstacle) it is not quantised to the cell grid and does not reward an endpoint behind the surface.
         """
         u = (np.asarray(x) - self.origin[0]) / self.resolution - 0.5 + 2.0  # +2: the padding
         v = (np.asarray(y) - self.origin[1]) / self.resolution - 0.5 + 2.0
@@ -182,6 +194,24 @@ def likelihood_field_weights(particles, omap, laser_xy, bearings, ranges, range_
     return 1.0 + np.sum(pz**3, axis=1)
 
 
+def likelihood_field_prob_weights(particles, omap, laser_xy, bearings, ranges, range_max, params):
+    """ROS amcl's ``likelihood_field_prob`` model (without beam skipping): the product of the beams' pz.
+
+    pz as in :func:`likelihood_field_weights`; p = exp(sum ln pz) over the beams with a return, so
+    unlike the summed cubes every beam multiplies in and a few centimetres of misfit on many beams count.
+    """
+    ranges = np.asarray(ranges, dtype=float)
+    bearings = np.asarray(bearings, dtype=float)
+    use = np.isfinite(ranges) & (ranges < range_max)
+    ranges, bearings = ranges[use], bearings[use]
+    if ranges.size == 0:
+        return np.ones(len(particles))
+    ex, ey = beam_endpoints(particles, laser_xy, bearings, ranges)
+    d = omap.distance_interpolated(ex, ey) if params.interpolate else omap.distance_at(ex, ey)
+    pz = params.z_hit * np.exp(-(d * d) / (2.0 * params.sigma_hit**2)) + params.z_rand / range_max
+    return np.exp(np.sum(np.log(pz), axis=1))
+
+
 def beam_weights(particles, omap, laser_xy, bearings, ranges, range_max, params):
     """ROS amcl's beam model: expected range by ray casting in the map, four-part mixture per beam."""
     ranges = np.asarray(ranges, dtype=float)
@@ -207,6 +237,8 @@ def beam_weights(particles, omap, laser_xy, bearings, ranges, range_max, params)
 def sensor_weights(model, particles, omap, laser_xy, bearings, ranges, range_max, params):
     if model == "likelihood_field":
         return likelihood_field_weights(particles, omap, laser_xy, bearings, ranges, range_max, params)
+    if model == "likelihood_field_prob":
+        return likelihood_field_prob_weights(particles, omap, laser_xy, bearings, ranges, range_max, params)
     if model == "beam":
         return beam_weights(particles, omap, laser_xy, bearings, ranges, range_max, params)
     raise ValueError(f"laser_model_type must be one of {LASER_MODELS}, got {model!r}")
