@@ -111,8 +111,9 @@ def main():
     parser.add_argument("--leg-timeout", type=float, default=180.0, help="simulated seconds per goal")
     args = parser.parse_args()
 
-    from florence_harness.processes import RosMaster, roslaunch, wait_for
     from map_server.mapfile import load_map
+
+    from florence_harness.processes import RosMaster, roslaunch, wait_for
 
     RESULTS.mkdir(parents=True, exist_ok=True)
     grid = load_map(str(MAP_YAML))
@@ -126,9 +127,8 @@ def main():
                       f"x:={START[0]}", f"y:={START[1]}", f"yaw:={START[2]}")
     try:
         import rospy
-        from nav_msgs.srv import GetPlan
-
         from move_base.sim_nav import NavSession
+        from nav_msgs.srv import GetPlan
 
         rospy.init_node("bench", anonymous=False, disable_signals=True)
         session = NavSession()
