@@ -13,7 +13,7 @@ def test_demo_writes_report_from_live_tf(tmp_path):
     out = tmp_path / "demo"
     result = subprocess.run(
         [sys.executable, "-m", "florence_bringup.demo", "--output", str(out), "--rviz", "no", "--timeout", "120"],
-        capture_output=True, text=True, timeout=300, check=False,
+        capture_output=True, text=True, timeout=600, check=False,
     )
     assert result.returncode == 0, result.stdout + result.stderr
     report = (out / "report.md").read_text()
@@ -28,6 +28,10 @@ def test_demo_writes_report_from_live_tf(tmp_path):
     assert 5.55 < scenario["steps"][3]["truth"][1] < 6.75, "the robot reached the corridor"
     assert scenario["summary"]["rates_hz_sim_time"]["/scan"] == pytest.approx(10.0, rel=0.25)
     assert all(ok for _, ok, _ in scenario["checks"])
+    goals = scenario["navigation"]["goals"]
+    assert [g["goal"] for g in goals] == ["kitchen", "bedroom", "living_room"]
+    assert all(g["state"] == "SUCCEEDED" and g["error_m"] < 0.35 for g in goals), goals
+    assert all(ok for _, ok, _ in scenario["navigation"]["checks"])
 
 
 @pytest.mark.ros

@@ -1,15 +1,23 @@
 """The main job (`make demo`): run the Florence robot in the simulator headless and write a report.
 
-The demo starts a private rosmaster and ``florence_sim.launch`` (the apartment with two
-walking people, robot_state_publisher on the robot description, fake localization),
-reads the live tf tree and checks the frame conventions the other nodes rely on, then
-runs a scripted scenario by ``cmd_vel``: drive out of the living room into the
-corridor, turn, drive along it, tilt the Kinect, bump into the corridor wall and back
-off. It measures every sensor's rate in simulated time, the odometry drift against
-ground truth and the collisions, and writes ``report.md``, ``frames.json`` and
-``scenario.json``. With a display (``DISPLAY`` set) it opens rviz with the simulator's
-configuration first and runs the scenario in real time so it can be watched.
-The navigation scenario (move_base) comes with the navigation stack.
+The demo starts a private rosmaster and the navigation stack in simulation
+(``turtlebot_2dnav_control.launch sim:=true``: florence_sim's apartment with two walking
+people, robot_state_publisher, the Florence filters and velocity multiplexer, map_server,
+amcl, move_base), reads the live tf tree and checks the frame conventions the other nodes
+rely on, then runs two scenarios:
+
+1. by hand, as a person at the keyboard (the multiplexer's teleop input): drive out of the
+   living room into the corridor, turn, drive along it, tilt the Kinect, bump into the
+   corridor wall and back off; it measures every sensor's rate in simulated time, the
+   odometry drift against ground truth and the collisions;
+2. by move_base goals, as a client of the navigation stack would: the people leave, and the
+   robot goes to the kitchen, the bedroom and back to the living room (room hotspots of
+   maps/apartment/rooms.yaml), each goal's outcome, time and final error measured against
+   ground truth.
+
+It writes ``report.md``, ``frames.json`` and ``scenario.json``. With a display
+(``DISPLAY`` set) it opens rviz with the simulator's configuration first and runs in real
+time so it can be watched.
 
 Usage: python3 -m florence_bringup.demo [--output DIR] [--rviz auto|yes|no] [--timeout S]
                                         [--real-time-factor F]
@@ -32,6 +40,8 @@ from florence_bringup.tf_report import FrameLink, check_conventions, render_tree
 from florence_harness.processes import HarnessError, ManagedProcess, RosMaster, roslaunch, wait_for
 
 ROOT_FRAME = "base_footprint"
+TELEOP = "/cmd_vel_mux/input/teleop"
+NAV_GOALS = ("kitchen", "bedroom", "living_room")  # room hotspots the navigation scenario visits
 START = (2.45, 4.5, math.pi / 2)  # [m, m, rad] living room, facing its door to the corridor
 # topic -> (message module, class) whose rate the report gives
 RATES = {
@@ -140,16 +150,17 @@ class Observer:
 
 
 class Driver:
-    """Closed-loop moves on odometry, published on cmd_vel at 20 Hz (wall time)."""
+    """Closed-loop moves on odometry, published on the teleop input at 20 Hz (wall time)."""
 
     def __init__(self, rospy, observer, timeout):
         from geometry_msgs.msg import Twist
 
         self.obs = observer
         self.timeout = timeout
-        self.pub = rospy.Publisher("/cmd_vel", Twist, queue_size=1)
+        # the multiplexer's teleop input, as turtlebot_teleop would: above move_base, through velocity_filter
+        self.pub = rospy.Publisher(TELEOP, Twist, queue_size=1)
         self.Twist = Twist
-        wait_for(lambda: self.pub.get_num_connections() > 0, timeout, what="the simulator on cmd_vel")
+        wait_for(lambda: self.pub.get_num_connections() > 0, timeout, what="cmd_vel_mux on its teleop input")
 
     def _run(self, command, done, sim_limit):
         """Publish ``command()`` -> (v, w) until ``done()``; then stop."""
@@ -279,6 +290,52 @@ def run_scenario(rospy, obs, timeout):
     return rows, summary
 
 
+def run_navigation(rospy, timeout):
+    """Scenario 2: move_base goals to room hotspots; returns (rows, checks)."""
+    import yaml
+    from move_base.sim_nav import NavSession
+
+    from florence_harness import workspace
+    from florence_sim.srv import RemovePerson
+
+    rooms = yaml.safe_load((workspace.root() / "maps" / "apartment" / "rooms.yaml").read_text())["rooms"]
+    remove = rospy.ServiceProxy("/florence_sim/remove_person", RemovePerson)
+    for person in ("alice", "bob"):
+        remove(person)  # person avoidance is the scenario tests' (test_move_base_sim.py)
+    session = NavSession()
+    if not session.wait_ready(timeout):
+        raise HarnessError("move_base's action server did not come up")
+    time.sleep(1.0)  # a fresh action client's first goal can be lost while the connections settle
+    collisions_before = _collisions(rospy, timeout)
+    rows = []
+    try:
+        for room in NAV_GOALS:
+            h = rooms[room]["hotspot"]
+            start = session.latest()
+            state, text, took, length = session.go(h["x"], h["y"], h["phi"], sim_timeout=max(timeout, 120.0) * 1.5)
+            here = session.latest()
+            err = math.hypot(here[1] - h["x"], here[2] - h["y"])
+            yaw_err = abs(_wrap(here[3] - h["phi"]))
+            rows.append({"goal": room, "hotspot": [h["x"], h["y"], h["phi"]], "state": state, "text": text,
+                         "sim_time_s": round(took, 2), "driven_m": round(length, 2),
+                         "from": [round(v, 2) for v in start[1:4]], "error_m": round(err, 3),
+                         "yaw_error_deg": round(math.degrees(yaw_err), 1)})
+            print(f"demo: move_base goal {room}: {state} in {took:.1f} s (sim), {length:.1f} m, "
+                  f"off by {err:.2f} m / {math.degrees(yaw_err):.0f} deg {text}", flush=True)
+    finally:
+        session.close()
+    collisions = _collisions(rospy, timeout) - collisions_before
+    checks = [
+        ("every goal SUCCEEDED", all(r["state"] == "SUCCEEDED" for r in rows),
+         ", ".join(f"{r['goal']}: {r['state']}" for r in rows)),
+        # xy_goal_tolerance 0.25 m of the seed plus amcl's error
+        ("every goal reached within 0.35 m", all(r["error_m"] < 0.35 for r in rows),
+         ", ".join(f"{r['error_m']} m" for r in rows)),
+        ("no collision while navigating", collisions == 0, f"{collisions} collision(s)"),
+    ]
+    return rows, checks
+
+
 def _check_running(sim, rospy, timeout):
     """Fail at once (not after a timeout) when the simulator dies at start-up."""
     from rosgraph_msgs.msg import Clock
@@ -320,20 +377,21 @@ def scenario_passed(rows, summary):
     return checks
 
 
-def write_report(out_dir, frames, checks, links, master_uri, rows=None, summary=None, scenario_checks=()):
+def write_report(out_dir, frames, checks, links, master_uri, rows=None, summary=None, scenario_checks=(),
+                 nav_rows=(), nav_checks=()):
     os.makedirs(out_dir, exist_ok=True)
     tree = render_tree(frames, ROOT_FRAME)
     passed = all(ok for _, ok, _ in checks)
-    scenario_ok = all(ok for _, ok, _ in scenario_checks)
+    scenario_ok = all(ok for _, ok, _ in scenario_checks) and all(ok for _, ok, _ in nav_checks)
     lines = [
         "# Florence demo report",
         "",
         f"- time: {datetime.datetime.now().isoformat(timespec='seconds')}",
         f"- ROS master: {master_uri} (private, stopped at the end)",
-        "- ran: florence_sim/florence_sim.launch (apartment world, 2 walking people, fake localization; "
-        "robot_state_publisher and joint_state_publisher on the robot description)",
-        "- not yet in the workspace: navigation (move_base) and the behaviour nodes, so the scenario drives "
-        "by cmd_vel",
+        "- ran: turtlebot_control/turtlebot_2dnav_control.launch sim:=true (florence_sim's apartment with 2 "
+        "walking people, robot_state_publisher, laser_filter, laser_combinator, pointcloud_to_laserscan, "
+        "cmd_vel_mux, velocity_filter, map_server, amcl, move_base)",
+        "- not yet in the workspace: the behaviour nodes (florence_locator, follow_me, approach_me, ...)",
         f"- robot links in the URDF: {len(links)}; frames in tf: {len(frames) + 1}",
         f"- frame conventions: {'all passed' if passed else 'FAILED'}",
         f"- scenario: {'all passed' if scenario_ok else 'FAILED'}",
@@ -341,7 +399,7 @@ def write_report(out_dir, frames, checks, links, master_uri, rows=None, summary=
     ]
     if rows:
         lines += [
-            "## Scenario (cmd_vel, closed loop on odometry)",
+            "## Scenario 1: by hand (teleop input of the multiplexer, closed loop on odometry)",
             "",
             f"{summary['sim_seconds']} s simulated in {summary['wall_seconds']} s "
             f"(real-time factor {summary['real_time_factor_achieved']}); "
@@ -367,6 +425,20 @@ def write_report(out_dir, frames, checks, links, master_uri, rows=None, summary=
             *[f"- [{'x' if ok else ' '}] {name}: {detail}" for name, ok, detail in scenario_checks],
             "",
         ]
+    if nav_rows:
+        lines += [
+            "## Scenario 2: move_base goals to room hotspots (people sent away)",
+            "",
+            "| goal | from x, y, yaw | outcome | sim time [s] | driven [m] | final error [m] | yaw error [deg] |",
+            "| --- | --- | --- | --- | --- | --- | --- |",
+            *[f"| {r['goal']} {r['hotspot']} | {r['from']} | {r['state']} {r['text']} | {r['sim_time_s']} | "
+              f"{r['driven_m']} | {r['error_m']} | {r['yaw_error_deg']} |" for r in nav_rows],
+            "",
+            "## Navigation checks",
+            "",
+            *[f"- [{'x' if ok else ' '}] {name}: {detail}" for name, ok, detail in nav_checks],
+            "",
+        ]
     lines += [
         "## Frame conventions (live tf)",
         "",
@@ -388,7 +460,8 @@ def write_report(out_dir, frames, checks, links, master_uri, rows=None, summary=
     atomic_write(os.path.join(out_dir, "frames.json"),
                  json.dumps({"root": ROOT_FRAME, "frames": data, "checks": checks}, indent=2).encode())
     if rows:
-        scenario = {"steps": rows, "summary": summary, "checks": list(scenario_checks)}
+        scenario = {"steps": rows, "summary": summary, "checks": list(scenario_checks),
+                    "navigation": {"goals": list(nav_rows), "checks": list(nav_checks)}}
         atomic_write(os.path.join(out_dir, "scenario.json"), json.dumps(scenario, indent=2).encode())
     return report, passed and scenario_ok
 
@@ -413,8 +486,8 @@ def main(argv=None):
         os.environ.update({k: v for k, v in master.env().items() if k.startswith("ROS_")})
         print(f"demo: private ROS master at {master.uri}", flush=True)
         x, y, yaw = START
-        processes.append(roslaunch(master, "florence_sim", "florence_sim.launch", f"real_time_factor:={rtf}",
-                                   "fake_localization:=true", f"x:={x}", f"y:={y}", f"yaw:={yaw}"))
+        processes.append(roslaunch(master, "turtlebot_control", "turtlebot_2dnav_control.launch", "sim:=true",
+                                   f"real_time_factor:={rtf}", f"x:={x}", f"y:={y}", f"yaw:={yaw}"))
 
         import rospy
 
@@ -439,7 +512,9 @@ def main(argv=None):
         rows, summary = run_scenario(rospy, obs, args.timeout)
         obs.close()
         scenario_checks = scenario_passed(rows, summary)
-        report, passed = write_report(args.output, frames, checks, links, master.uri, rows, summary, scenario_checks)
+        nav_rows, nav_checks = run_navigation(rospy, args.timeout)
+        report, passed = write_report(args.output, frames, checks, links, master.uri, rows, summary, scenario_checks,
+                                      nav_rows, nav_checks)
         print(report, flush=True)
         print(f"demo: report written to {os.path.join(os.path.abspath(args.output), 'report.md')}", flush=True)
 
