@@ -182,16 +182,21 @@ def likelihood_field_weights(particles, omap, laser_xy, bearings, ranges, range_
     beam's endpoint to the nearest obstacle (capped at likelihood_max_dist; outside the
     map: the cap). NaN beams and beams at or beyond range_max are left out.
     """
+    pz = _likelihood_field_pz(particles, omap, laser_xy, bearings, ranges, range_max, params)
+    return np.ones(len(particles)) if pz is None else 1.0 + np.sum(pz**3, axis=1)
+
+
+def _likelihood_field_pz(particles, omap, laser_xy, bearings, ranges, range_max, params):
+    """pz (particles x beams) of the likelihood field for the beams with a return, or None without any."""
     ranges = np.asarray(ranges, dtype=float)
     bearings = np.asarray(bearings, dtype=float)
     use = np.isfinite(ranges) & (ranges < range_max)
     ranges, bearings = ranges[use], bearings[use]
     if ranges.size == 0:
-        return np.ones(len(particles))
+        return None
     ex, ey = beam_endpoints(particles, laser_xy, bearings, ranges)
     d = omap.distance_interpolated(ex, ey) if params.interpolate else omap.distance_at(ex, ey)
-    pz = params.z_hit * np.exp(-(d * d) / (2.0 * params.sigma_hit**2)) + params.z_rand / range_max
-    return 1.0 + np.sum(pz**3, axis=1)
+    return params.z_hit * np.exp(-(d * d) / (2.0 * params.sigma_hit**2)) + params.z_rand / range_max
 
 
 def likelihood_field_prob_weights(particles, omap, laser_xy, bearings, ranges, range_max, params):
@@ -200,16 +205,8 @@ def likelihood_field_prob_weights(particles, omap, laser_xy, bearings, ranges, r
     pz as in :func:`likelihood_field_weights`; p = exp(sum ln pz) over the beams with a return, so
     unlike the summed cubes every beam multiplies in and a few centimetres of misfit on many beams count.
     """
-    ranges = np.asarray(ranges, dtype=float)
-    bearings = np.asarray(bearings, dtype=float)
-    use = np.isfinite(ranges) & (ranges < range_max)
-    ranges, bearings = ranges[use], bearings[use]
-    if ranges.size == 0:
-        return np.ones(len(particles))
-    ex, ey = beam_endpoints(particles, laser_xy, bearings, ranges)
-    d = omap.distance_interpolated(ex, ey) if params.interpolate else omap.distance_at(ex, ey)
-    pz = params.z_hit * np.exp(-(d * d) / (2.0 * params.sigma_hit**2)) + params.z_rand / range_max
-    return np.exp(np.sum(np.log(pz), axis=1))
+    pz = _likelihood_field_pz(particles, omap, laser_xy, bearings, ranges, range_max, params)
+    return np.ones(len(particles)) if pz is None else np.exp(np.sum(np.log(pz), axis=1))
 
 
 def beam_weights(particles, omap, laser_xy, bearings, ranges, range_max, params):
