@@ -72,7 +72,8 @@ def test_amcl_follows_a_tour_and_resets(amcl_in_sim, tf_buffer):
 
     # initialpose resets the filter: a pose 1 m off becomes the estimate at once...
     here = rec.latest_truth()
-    pub = rospy.Publisher("initialpose", PoseWithCovarianceStamped, queue_size=1, latch=True)
+    # not latched: a latched pose would outlive this test and reset the amcl of a later test on this master
+    pub = rospy.Publisher("initialpose", PoseWithCovarianceStamped, queue_size=1)
 
     def publish_initial(x, y, yaw_):
         msg = PoseWithCovarianceStamped()

@@ -40,7 +40,7 @@ def test_demo_stopped_by_sigterm_leaves_no_process(tmp_path):
     import os
     import signal
 
-    from florence_harness.processes import ManagedProcess, pid_alive, wait_for
+    from florence_harness.processes import ManagedProcess, descendant_pids, pid_alive, wait_for
 
     # A stand-in viewer that stays open, so the demo is certainly still running when signalled.
     bin_dir = tmp_path / "bin"
@@ -54,7 +54,7 @@ def test_demo_stopped_by_sigterm_leaves_no_process(tmp_path):
     try:
         wait_for(lambda: "rviz is open" in demo.output(), 120.0, what="demo waiting on rviz")
         assert demo.running()
-        children = _descendants(demo.pid)
+        children = descendant_pids(demo.pid)
         assert children, "the demo started no child process"
         os.kill(demo.pid, signal.SIGTERM)
         demo.proc.wait(60.0)
@@ -64,19 +64,3 @@ def test_demo_stopped_by_sigterm_leaves_no_process(tmp_path):
         for pid in children:  # survivors of a failed run: this test started them, it stops them
             if pid_alive(pid):
                 os.kill(pid, signal.SIGKILL)
-
-
-def _descendants(pid):
-    import subprocess
-
-    out = subprocess.run(["ps", "-eo", "pid,ppid"], capture_output=True, text=True, check=True).stdout
-    parents = {}
-    for line in out.splitlines()[1:]:
-        child, parent = (int(v) for v in line.split())
-        parents.setdefault(parent, []).append(child)
-    found, todo = [], [pid]
-    while todo:
-        for child in parents.get(todo.pop(), []):
-            found.append(child)
-            todo.append(child)
-    return found

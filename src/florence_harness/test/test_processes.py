@@ -61,3 +61,24 @@ def test_child_output_reaches_the_log_while_it_runs(monkeypatch):
         wait_for(lambda: "ready" in proc.output(), 10.0, what="the child's line in its log")
     finally:
         proc.stop()
+
+
+def test_stop_kills_a_descendant_in_its_own_session_that_ignores_signals(tmp_path):
+    """roslaunch starts each node with setsid: out of the launch's process group. A node that
+    ignores SIGINT and SIGTERM must not outlive stop() (seen: a demo stopped during start-up)."""
+    pid_file = tmp_path / "child.pid"
+    child = (
+        "import os, signal, time; signal.signal(signal.SIGINT, signal.SIG_IGN); "
+        "signal.signal(signal.SIGTERM, signal.SIG_IGN); os.setsid(); "
+        f"open({str(pid_file)!r}, 'w').write(str(os.getpid())); time.sleep(600)"
+    )
+    parent = f"import subprocess, sys, time; subprocess.Popen([sys.executable, '-c', {child!r}]); time.sleep(600)"
+    proc = ManagedProcess([sys.executable, "-c", parent], name="parent")
+    try:
+        wait_for(lambda: pid_file.exists() and pid_file.read_text(), 20, what="the child's pid")
+        child_pid = int(pid_file.read_text())
+        assert pid_alive(child_pid)
+        proc.stop(timeout=1.0)
+        wait_for(lambda: not pid_alive(child_pid), 10, what="the child gone")
+    finally:
+        proc.stop()

@@ -48,6 +48,12 @@ def nav(ros_master, rospy_node, tf_buffer, tmp_path_factory):
         assert session.wait_ready(180.0), f"move_base did not come up:\n{stack.output()}"
         # the costmaps need the map and a first scan; amcl its first pose
         wait_for(lambda: master.lookupNode("/amcl") and session.sim_now() > 3.0, 60, what="the stack to settle")
+        # amcl starts where the robot is (a stale initialpose or parameter on this master would not)
+        import rospy
+        from geometry_msgs.msg import PoseWithCovarianceStamped
+
+        pose = rospy.wait_for_message("amcl_pose", PoseWithCovarianceStamped, 60).pose.pose.position
+        assert math.hypot(pose.x - START[0], pose.y - START[1]) < 0.5, f"amcl starts at ({pose.x}, {pose.y})"
         time.sleep(1.0)  # a fresh action client's first goal can be lost while connections settle
         yield session, stack
     finally:

@@ -41,6 +41,26 @@ def pid_alive(pid):
         return False
 
 
+def descendant_pids(pid):
+    """PIDs of every living descendant of process ``pid`` (children, their children, ...), from /proc."""
+    parents = {}
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            with open(f"/proc/{entry}/stat") as f:
+                ppid = int(f.read().rsplit(")", 1)[1].split()[1])
+        except (OSError, IndexError, ValueError):
+            continue  # gone meanwhile
+        parents.setdefault(ppid, []).append(int(entry))
+    found, todo = [], [pid]
+    while todo:
+        for child in parents.get(todo.pop(), []):
+            found.append(child)
+            todo.append(child)
+    return found
+
+
 def wait_for(predicate, timeout, interval=0.05, what="condition"):
     """Poll ``predicate()`` until it returns a truthy value; return that value.
 
@@ -105,7 +125,11 @@ class ManagedProcess:
             return ""
 
     def stop(self, timeout=10.0):
-        """Stop the whole process group: SIGINT, then SIGTERM, then SIGKILL."""
+        """Stop the whole process group: SIGINT, then SIGTERM, then SIGKILL; then SIGKILL every
+        descendant still alive. roslaunch starts each node in a session of its own, so a node that
+        does not end on roslaunch's SIGINT (busy in C code at start-up, say) would outlive a
+        roslaunch killed before its own escalation finished."""
+        descendants = descendant_pids(self.proc.pid) if self.proc.poll() is None else []
         try:
             for sig, wait in ((signal.SIGINT, timeout), (signal.SIGTERM, 5.0), (signal.SIGKILL, 5.0)):
                 if self.proc.poll() is not None:
@@ -121,6 +145,11 @@ class ManagedProcess:
             # The leader may be gone while children of its group linger.
             with contextlib.suppress(ProcessLookupError, PermissionError):
                 os.killpg(self.proc.pid, signal.SIGKILL)
+            for pid in descendants:
+                if pid_alive(pid):
+                    log.warning("%s: descendant %d outlived it, killing it", self.name, pid)
+                    with contextlib.suppress(ProcessLookupError, PermissionError):
+                        os.kill(pid, signal.SIGKILL)
         finally:
             self._log.close()
         return self.proc.returncode
