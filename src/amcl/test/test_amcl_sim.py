@@ -41,6 +41,11 @@ def amcl_in_sim(rospy_node, ros_master, launch, tf_buffer, tmp_path):
         # wait for a /clock that nobody publishes any more.
         if not had_sim_time and master.hasParam("/use_sim_time"):
             master.deleteParam("/use_sim_time")
+        # amcl's save_pose_rate stored its last estimate and covariance in /amcl/initial_pose_* and
+        # /amcl/initial_cov_*; the launch file sets the pose but not the covariance, so a later amcl on
+        # this master would start from the spread of global_localization (seen in the navigation tests)
+        if master.hasParam("/amcl"):
+            master.deleteParam("/amcl")
         # This simulation's map -> odom and robot frames (sim time) must not mix with later tests' data.
         tf_buffer.clear()
 

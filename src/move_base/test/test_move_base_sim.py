@@ -38,6 +38,9 @@ def nav(ros_master, rospy_node, tf_buffer, tmp_path_factory):
 
     master = rosgraph.Master("/pytest")
     had_sim_time = master.hasParam("/use_sim_time")
+    for stale in ("/amcl", "/move_base"):  # parameters an earlier test's nodes stored on this session master
+        if master.hasParam(stale):
+            master.deleteParam(stale)
     nobody = tmp_path_factory.mktemp("nav") / "nobody.yaml"
     nobody.write_text("people: []\n")
     stack = roslaunch(ros_master, "turtlebot_control", "turtlebot_2dnav_control.launch", "sim:=true",
