@@ -262,3 +262,23 @@ def test_rotate_recovery_stops_before_a_collision():
     turned, cmds = simulate_rotation(rec, collide_at=1.0)
     assert turned < 1.0
     assert cmds[-1] == (0.0, 0.0, 0.0)
+
+
+def test_max_recovery_restarts_ends_a_robot_shuffling_on_the_spot():
+    """Regression (bench/nav.py leg in a doorway): the robot moved 0.5 m now and then, which restarts
+    the recovery list (ROS's rule), so the goal never ended; with max_recovery_restarts it does."""
+    ctrl = FakeController()
+    recs = [FakeRecovery("conservative_reset"), FakeRecovery("rotate_recovery")]
+
+    def shuffle(t):  # back and forth by 0.6 m every 12 s: never oscillation_timeout-free for long
+        return (0.6 if int(t // 12) % 2 else 0.0, 0.0, 0.0)
+
+    core = MoveBaseCore(MoveBaseParams(oscillation_timeout=5.0, max_recovery_restarts=2), FakePlanner([GOOD]), ctrl,
+                        recs)
+    core.set_goal((5.0, 0.0, 0.0), 0.0, POSE)
+    outcome, text, _, _ = run(core, pose=shuffle, n=5000)
+    assert outcome == "aborted" and "started over 3 times" in text and text.startswith("Robot is oscillating")
+    unlimited = MoveBaseCore(MoveBaseParams(oscillation_timeout=5.0), FakePlanner([GOOD]), FakeController(),
+                             [FakeRecovery("a"), FakeRecovery("b")])
+    unlimited.set_goal((5.0, 0.0, 0.0), 0.0, POSE)
+    assert run(unlimited, pose=shuffle, n=5000)[0] is None  # ROS: on and on

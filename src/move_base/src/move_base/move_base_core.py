@@ -50,6 +50,10 @@ class MoveBaseParams:
     clearing_rotation_allowed: bool = True
     conservative_reset_dist: float = 3.0
     shutdown_costmaps: bool = False
+    # Florence addition (-1 = ROS: no limit): how often the recovery list may start again from its
+    # first entry after the robot seemed to make progress (moved oscillation_distance, a plan or a
+    # command found again). A robot shuffling on the spot in a doorway did that for ever in ROS.
+    max_recovery_restarts: int = -1
 
     def validate(self):
         checks = {
@@ -92,6 +96,7 @@ class _GoalState:
     last_oscillation_reset: float = 0.0
     oscillation_pose: tuple = (0.0, 0.0)
     planning_retries: int = 0
+    recovery_restarts: int = 0
     last_plan_time: float = -math.inf
     have_plan: bool = False
     reasons: dict = field(default_factory=dict)
@@ -150,7 +155,7 @@ class MoveBaseCore:
             g.last_oscillation_reset = now
             g.oscillation_pose = (pose[0], pose[1])
             if g.trigger == OSCILLATION_R:
-                g.recovery_index = 0
+                self._restart_recoveries(g)
 
         ok, why = self.sensors_current()
         if not ok and g.state != CLEARING:
@@ -193,7 +198,7 @@ class MoveBaseCore:
             if g.state == PLANNING:
                 g.state = CONTROLLING
                 if g.trigger == PLANNING_R:
-                    g.recovery_index = 0
+                    self._restart_recoveries(g)
             return None
         g.reasons[PLANNING_R] = plan.reason
         if getattr(plan, "permanent", False):
@@ -228,7 +233,7 @@ class MoveBaseCore:
         if ok:
             g.last_valid_control = now
             if g.trigger == CONTROLLING_R:
-                g.recovery_index = 0
+                self._restart_recoveries(g)
             result.cmd = tuple(cmd)
             return result
         g.reasons[CONTROLLING_R] = reason
@@ -247,6 +252,9 @@ class MoveBaseCore:
         if g.recovery is None:
             if not (p.recovery_behavior_enabled and g.recovery_index < len(self.recoveries)):
                 return self._abort(self._final_text())
+            if 0 <= p.max_recovery_restarts < g.recovery_restarts:
+                return self._abort(f"{self._final_text()} (the recovery behaviours started over "
+                                   f"{g.recovery_restarts} times: max_recovery_restarts {p.max_recovery_restarts})")
             g.recovery = self.recoveries[g.recovery_index]
             log.info("running recovery behaviour %d: %s", g.recovery_index, g.recovery.name)
             g.recovery.start(now, tuple(pose))
@@ -265,6 +273,12 @@ class MoveBaseCore:
         g.planning_retries = 0
         g.last_valid_plan = now
         return CycleResult(cmd=ZERO, text=f"recovery {name} done", started_recovery=started)
+
+    @staticmethod
+    def _restart_recoveries(g):
+        if g.recovery_index > 0:
+            g.recovery_restarts += 1
+        g.recovery_index = 0
 
     def _final_text(self):
         g = self.g

@@ -15,6 +15,8 @@ ROS Parameters (ROS names and defaults; the seed's YAML files set several):
     ~recovery_behavior_enabled (bool, true), ~clearing_rotation_allowed (bool, true).
     ~conservative_reset_dist (double, 3.0, m): side of the square kept by the conservative reset.
     ~shutdown_costmaps (bool, false): pause the costmaps while there is no goal.
+    ~max_recovery_restarts (int, -1): Florence addition: how often the recovery list may start over
+        after apparent progress before the goal is aborted (-1: no limit, as ROS).
     ~recovery_behaviors (list of {name, type}, ROS's default list): types
         clear_costmap_recovery/ClearCostmapRecovery (~<name>/reset_distance, default 3.0 m) and
         rotate_recovery/RotateRecovery.
@@ -194,6 +196,7 @@ class MoveBaseNode:
             clearing_rotation_allowed=bool(rospy.get_param("~clearing_rotation_allowed", True)),
             conservative_reset_dist=float(rospy.get_param("~conservative_reset_dist", 3.0)),
             shutdown_costmaps=bool(rospy.get_param("~shutdown_costmaps", False)),
+            max_recovery_restarts=int(rospy.get_param("~max_recovery_restarts", -1)),
         ).validate()
         navfn = rospy.get_param("~NavfnROS", {}) or {}
         self.global_planner = NavfnPlanner(
