@@ -6,10 +6,13 @@ breadth-first search, hand-placed obstacles.
 
 import collections
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 from move_base.costmap_2d import INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, NO_INFORMATION, Costmap2D
+from move_base.footprint import pad_footprint, parse_footprint
 from move_base.trajectory_planner import (
     ESCAPE,
     FORWARD,
@@ -20,17 +23,13 @@ from move_base.trajectory_planner import (
     adjust_plan_resolution,
 )
 
-# The seed's footprint (costmap_common_params.yaml) padded by footprint_padding 0.01 m.
-FOOTPRINT = np.array([[-0.17, -0.17], [-0.17, 0.17], [0.20, 0.17], [0.25, 0.0], [0.20, -0.17]])
-
-# The seed's base_local_planner_params.yaml (old parameter names on purpose).
-SEED = {
-    "max_vel_x": 0.50, "min_vel_x": 0.10, "max_rotational_vel": 1.5, "min_in_place_rotational_vel": 1.0,
-    "acc_lim_th": 3.0, "acc_lim_x": 0.50, "acc_lim_y": 0.50, "holonomic_robot": False,
-    "yaw_goal_tolerance": 0.3, "xy_goal_tolerance": 0.25, "goal_distance_bias": 0.7, "path_distance_bias": 0.70,
-    "sim_time": 1.5, "heading_lookahead": 0.325, "oscillation_reset_dist": 0.05, "vx_samples": 6,
-    "vtheta_samples": 20, "dwa": False, "controller_frequency": 5.0,
-}
+# The seed's files (turtlebot_control/config): footprint padded by footprint_padding, and
+# base_local_planner_params.yaml with its old parameter names and its controller_frequency.
+_CONFIG = Path(__file__).resolve().parents[2] / "turtlebot_control" / "config"
+_COMMON = yaml.safe_load((_CONFIG / "costmap_common_params.yaml").read_text())
+_LOCAL = yaml.safe_load((_CONFIG / "base_local_planner_params.yaml").read_text())
+FOOTPRINT = pad_footprint(parse_footprint(_COMMON["footprint"]), _COMMON["footprint_padding"])
+SEED = {**_LOCAL["TrajectoryPlannerROS"], "controller_frequency": _LOCAL["controller_frequency"]}
 
 
 def seed_params(**over):
