@@ -133,10 +133,28 @@ def test_xy_goal_tolerance_latch():
         assert ("rotating" in reason) == expect_rotation
         if not expect_rotation:
             assert cmd[0] > 0.0
-        # a new plan clears the latch
-        lp.set_plan(plan)
-        ok, cmd, reason = lp.compute_velocity(cm, (4.6, 5.0, 0.0), (0.0, 0.0, 0.0), plan)
+        # a plan to another goal clears the latch
+        other = line_plan(3.0, 5.0, 5.0, 5.0, yaw_end=1.4)
+        lp.set_plan(other)
+        ok, cmd, reason = lp.compute_velocity(cm, (4.6, 5.0, 0.0), (0.0, 0.0, 0.0), other)
         assert "rotating" not in reason
+
+
+def test_replanning_to_the_same_goal_keeps_the_rotation_to_the_goal_yaw():
+    """move_base replans at planner_frequency: the new plan ends at the same goal, and the robot
+    that was turning on the spot must go on turning, not brake and drive again."""
+    cm = Costmap2D(100, 100, 0.1)
+    plan = line_plan(3.0, 5.0, 5.0, 5.0, yaw_end=2.5)
+    lp = planner(latch_xy_goal_tolerance=True)
+    lp.set_plan(plan)
+    ok, cmd, reason = lp.compute_velocity(cm, (4.8, 5.0, 0.0), (0.0, 0.0, 0.0), plan)
+    assert ok and "rotating" in reason
+    # turning at 1.0 rad/s, 0.3 m from the goal (outside xy_goal_tolerance), a replan arrives
+    replan = line_plan(4.7, 5.0, 5.0, 5.0, yaw_end=2.5)
+    lp.set_plan(replan)
+    ok, cmd, reason = lp.compute_velocity(cm, (4.7, 5.0, 1.0), (0.0, 0.0, 1.0), replan)
+    assert ok and "rotating" in reason and "braking" not in reason
+    assert cmd[0] == 0.0 and cmd[2] >= 1.0
 
 
 # --- plan window ---------------------------------------------------------------------------------
