@@ -5,12 +5,17 @@
 Starts turtlebot_2dnav_control.launch sim:=true (florence_sim without people, the filters,
 map_server, amcl, move_base with the seed's parameters) on a private master and sends the robot
 to --pairs random goals in a row (each leg is one pair: from where the robot is to a random pose
-at least --clearance m from the walls and furniture of the map, reachable by ~make_plan).
+at least --clearance m from the walls and furniture of florence_sim's keep-out map, the map
+move_base plans on, reachable by ~make_plan).
 For each leg: outcome, simulated time, the planned (shortest) path length from move_base's
-~make_plan, the driven length, collisions from the simulator's bumpers.
+~make_plan, the driven length, collisions from the simulator's bumpers, and where the time went
+(driving, turning on the spot, standing still).
 
 Figures and targets (issue 6): success >= 98 %, collisions 0, median time-to-goal <= 1.3 x
-(plan length / max_vel_x); move_base's CPU use at the seed's controller_frequency (5 Hz) from
+(plan length / max_vel_x). The goals' yaws are random, and each leg starts and ends with a
+turn that even a perfect controller needs time for: the bench also reports the ratio to plan
+length / max_vel_x plus those two turns at max_rotational_vel and velocity_filter's angular
+acceleration (time_ratio_with_turns_median). move_base's CPU use at the seed's controller_frequency (5 Hz) from
 /proc. Writes bench/results/nav.json and bench/results/nav.png (every trajectory over the map).
 """
 
@@ -28,9 +33,10 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
 RESULTS = ROOT / "bench" / "results"
-MAP_YAML = ROOT / "maps" / "apartment" / "apartment.yaml"
 START = (1.0, 2.5, 0.0)
 MAX_VEL_X = 0.5  # [m/s] the seed's TrajectoryPlannerROS max_vel_x
+MAX_VEL_TH = 1.5  # [rad/s] the seed's max_rotational_vel
+ACC_TH = 1.0  # [rad/s^2] velocity_filter's max_angular_acc, the base's real limit
 
 
 def node_pid(master_uri, name):
@@ -46,6 +52,16 @@ def cpu_seconds(pid):
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
+class Grid:
+    """An OccupancyGrid message as arrays: data (H, W) int8 with row 0 at the lowest y, resolution
+    [m], origin (x, y) [m]."""
+
+    def __init__(self, msg):
+        self.data = np.asarray(msg.data, dtype=np.int8).reshape(msg.info.height, msg.info.width)
+        self.resolution = msg.info.resolution
+        self.origin = (msg.info.origin.position.x, msg.info.origin.position.y)
+
+
 def random_goals(grid, count, clearance, rng):
     """``count`` poses (x, y, yaw) on free cells at least ``clearance`` [m] from any non-free cell."""
     from scipy.ndimage import distance_transform_edt
@@ -57,6 +73,28 @@ def random_goals(grid, count, clearance, rng):
     x = grid.origin[0] + (cols[pick] + 0.5) * grid.resolution
     y = grid.origin[1] + (rows[pick] + 0.5) * grid.resolution
     return np.column_stack([x, y, rng.uniform(-math.pi, math.pi, count)])
+
+
+def turn_time(angle):
+    """Least time [s] to turn by ``angle`` [rad] from rest to rest within MAX_VEL_TH and ACC_TH."""
+    angle = abs(math.atan2(math.sin(angle), math.cos(angle)))
+    if angle <= MAX_VEL_TH**2 / ACC_TH:
+        return 2.0 * math.sqrt(angle / ACC_TH)
+    return MAX_VEL_TH / ACC_TH + angle / MAX_VEL_TH
+
+
+def time_breakdown(track):
+    """Simulated seconds (driving, turning on the spot, standing) of a ground-truth track
+    (t, x, y, yaw, v, w)."""
+    track = np.asarray(track)
+    if len(track) < 2:
+        return {"driving_s": 0.0, "turning_in_place_s": 0.0, "standing_s": 0.0}
+    dt = np.diff(track[:, 0])
+    v, w = np.abs(track[:-1, 4]), np.abs(track[:-1, 5])
+    moving = v >= 0.03
+    turning = ~moving & (w >= 0.05)
+    return {"driving_s": float(dt[moving].sum()), "turning_in_place_s": float(dt[turning].sum()),
+            "standing_s": float(dt[~moving & ~turning].sum())}
 
 
 def plan_length(make_plan, start, goal):
@@ -73,7 +111,16 @@ def plan_length(make_plan, start, goal):
     if not plan.poses:
         return None
     xy = np.array([[p.pose.position.x, p.pose.position.y] for p in plan.poses])
-    return float(np.sum(np.hypot(*np.diff(xy, axis=0).T)))
+    length = float(np.sum(np.hypot(*np.diff(xy, axis=0).T)))
+
+    def heading(a, b):  # direction [rad] from a to b
+        return math.atan2(b[1] - a[1], b[0] - a[0])
+
+    along = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
+    first = min(int(np.searchsorted(along, 0.3)), len(xy) - 1)  # 0.3 m of plan at each end
+    last = max(int(np.searchsorted(along, length - 0.3)) - 1, 0)
+    turns = turn_time(heading(xy[0], xy[first]) - start[2]) + turn_time(goal[2] - heading(xy[last], xy[-1]))
+    return length, turns
 
 
 def plot(path, grid, legs, title):
@@ -92,7 +139,7 @@ def plot(path, grid, legs, title):
         track = np.asarray(leg["track"])
         if len(track):
             color = "tab:blue" if leg["state"] == "SUCCEEDED" else "tab:red"
-            ax.plot(track[:, 0], track[:, 1], "-", color=color, lw=0.8, alpha=0.6)
+            ax.plot(track[:, 1], track[:, 2], "-", color=color, lw=0.8, alpha=0.6)
         ax.plot(leg["goal"][0], leg["goal"][1], "x", color="tab:orange", ms=4)
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
@@ -111,12 +158,9 @@ def main():
     parser.add_argument("--leg-timeout", type=float, default=180.0, help="simulated seconds per goal")
     args = parser.parse_args()
 
-    from map_server.mapfile import load_map
-
     from florence_harness.processes import RosMaster, roslaunch, wait_for
 
     RESULTS.mkdir(parents=True, exist_ok=True)
-    grid = load_map(str(MAP_YAML))
     rng = np.random.default_rng(args.seed)
     master = RosMaster().start()
     os.environ.update({k: v for k, v in master.env().items() if k.startswith("ROS_")})
@@ -136,6 +180,11 @@ def main():
             raise SystemExit(f"move_base did not come up:\n{stack.output()}")
         wait_for(lambda: session.sim_now() > 3.0, 60, what="the simulation to run")
         time.sleep(1.0)
+        # goals come from the map move_base plans on: florence_sim's keep-out map (table tops and
+        # chair seats marked), so no goal is under a table
+        from nav_msgs.msg import OccupancyGrid
+
+        grid = Grid(rospy.wait_for_message("/florence_sim/keepout_map", OccupancyGrid, timeout=60))
         rospy.wait_for_service("/move_base/make_plan", 60)
         make_plan = rospy.ServiceProxy("/move_base/make_plan", GetPlan)
         pid = node_pid(master.uri, "/move_base")
@@ -147,9 +196,10 @@ def main():
             if len(legs) >= args.pairs:
                 break
             here = session.latest()
-            ideal = plan_length(make_plan, (here[1], here[2], here[3]), goal)
-            if ideal is None or ideal < 0.5:
+            planned = plan_length(make_plan, (here[1], here[2], here[3]), goal)
+            if planned is None or planned[0] < 0.5:
                 continue  # not reachable from here (a closed-off corner) or no real leg
+            ideal, turns = planned
             collisions_before = session.collisions
             t0 = session.sim_now()
             state, text, took, driven = session.go(*goal, sim_timeout=args.leg_timeout)
@@ -157,7 +207,9 @@ def main():
             legs.append({
                 "goal": [float(v) for v in goal], "state": state, "text": text, "time_s": took,
                 "plan_length_m": ideal, "driven_m": driven, "ratio": took / (ideal / MAX_VEL_X),
-                "collisions": session.collisions - collisions_before, "track": track[::10, 1:3].round(3).tolist(),
+                "turns_s": turns, "ratio_with_turns": took / (ideal / MAX_VEL_X + turns),
+                **time_breakdown(track),
+                "collisions": session.collisions - collisions_before, "track": track[::5].round(3).tolist(),
             })
             print(f"{len(legs):3d}: {state:9s} {took:6.1f} s plan {ideal:5.2f} m ratio "
                   f"{legs[-1]['ratio']:4.2f} {text if state != 'SUCCEEDED' else ''}", flush=True)
@@ -172,6 +224,12 @@ def main():
             "time_ratio_median": float(np.median(ratios)) if len(ratios) else None,
             "time_ratio_p90": float(np.percentile(ratios, 90)) if len(ratios) else None,
             "time_ratio_max": float(ratios.max()) if len(ratios) else None,
+            # the same against plan length / max_vel_x plus the least time for the turn from the robot's
+            # heading onto the plan and from the plan's last heading to the goal yaw (max_rotational_vel,
+            # velocity_filter's angular acceleration): what the random goal yaws cost at best
+            "time_ratio_with_turns_median": float(np.median([leg["ratio_with_turns"] for leg in ok])) if ok else None,
+            "time_share": {k: float(sum(leg[k] for leg in ok) / max(1e-9, sum(leg["time_s"] for leg in ok)))
+                           for k in ("driving_s", "turning_in_place_s", "standing_s")},
             "move_base_cpu_fraction": cpu / wall_total, "move_base_cpu_s_per_sim_s": cpu / sim_total,
             "sim_time_s": sim_total, "wall_time_s": wall_total, "rtf": args.rtf, "seed": args.seed,
             "failures": [{k: leg[k] for k in ("goal", "state", "text")} for leg in legs if leg["state"] != "SUCCEEDED"],

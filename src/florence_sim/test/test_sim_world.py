@@ -63,6 +63,26 @@ def test_map_is_map_server_format_with_legs_not_table_top(apartment):
     assert cell(2.45, 5.5) == 254  # living room door
 
 
+def test_keepout_map_marks_what_the_robot_runs_into_above_the_laser(apartment):
+    """rasterize(top=robot height): table tops and chair seats, which the laser passes under, are
+    occupied; the rest is the laser's map."""
+    laser = mapgen.rasterize(apartment, LASER_HEIGHT)
+    keepout = mapgen.rasterize(apartment, LASER_HEIGHT, top=0.94)
+    origin = (-0.5, -0.5)
+
+    def cell(image, x, y):
+        row = image.shape[0] - 1 - int((y - origin[1]) / 0.05)
+        return image[row, int((x - origin[0]) / 0.05)]
+
+    assert cell(laser, 3.4, 3.8) == 254 and cell(keepout, 3.4, 3.8) == 0  # under the dining table
+    assert cell(laser, 2.45, 3.8) == 254 and cell(keepout, 2.45, 3.8) == 0  # chair_west's seat
+    assert cell(keepout, 2.45, 5.5) == 254  # the living room door stays free
+    assert np.all(keepout[laser == 0] == 0)  # everything the laser sees stays occupied
+    assert np.all((keepout == 205) == (laser == 205))  # the same rooms
+    # a robot lower than the table top could go under it
+    assert cell(mapgen.rasterize(apartment, LASER_HEIGHT, top=0.5), 3.4, 3.8) == 254
+
+
 def test_rooms_yaml_lists_polygons_and_hotspots(apartment):
     data = yaml.safe_load((MAPS / "apartment" / "rooms.yaml").read_text())
     assert data["frame_id"] == "map"

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import yaml
 from move_base.costmap_2d import LETHAL_OBSTACLE, Costmap2D
-from move_base.footprint import pad_footprint, parse_footprint
+from move_base.footprint import pad_footprint, parse_footprint, transform_footprint
 from move_base.local_planner import NO_VALID_TRAJECTORY, LocalPlanner, clip_plan, prune_count
 from move_base.trajectory_planner import PlannerParams
 from scipy import ndimage
@@ -269,3 +269,29 @@ def test_cycle_time_report():
     print(f"\nlocal planner cycle [ms]: p50 {np.percentile(ms, 50):.2f} p99 {np.percentile(ms, 99):.2f} "
           f"max {ms.max():.2f} (K = {6 * 20 + 20 + 1} samples)")
     assert np.all(np.isfinite(ms))
+
+
+def test_goal_near_a_wall_drives_on_when_the_turn_would_collide():
+    """At the edge of xy_goal_tolerance next to a wall a turn on the spot would sweep the footprint's
+    nose (0.25 m) into it: the robot drives on toward the goal position and turns there."""
+    res = 0.05
+    lethal = np.zeros((100, 100), bool)
+    lethal[:, 60] = True  # a wall at x = 3.0 m
+    cm = Costmap2D(100, 100, res)
+    cm.costs[:] = inflated(lethal, res)
+    plan = line_plan(1.0, 2.5, 2.6, 2.5, yaw_end=math.pi / 2)  # goal 0.4 m from the wall, facing it
+    lp = planner(latch_xy_goal_tolerance=True)
+    lp.set_plan(plan)
+    # 0.19 m past the goal, the back to the wall (0.04 m from it): the rear corners would sweep
+    # into it during a turn on the spot
+    pose = (2.79, 2.5, math.pi)
+    ok, cmd, reason = lp.compute_velocity(cm, pose, (0.0, 0.0, 0.0), plan)
+    assert ok, reason
+    assert not lp._rotate_to_goal(cm, *pose, 0.0, 0.0, 0.0, math.pi / 2)[0]  # ROS would fail here
+    assert "rotating" not in reason and cmd != (0.0, 0.0, 0.0)
+    # closed loop: it gets to the goal position and turns there
+    poses = _drive(lp, cm, pose, plan, seconds=30.0, acc=(1.0, 1.0, 1.0))
+    assert lp.is_goal_reached()
+    assert math.hypot(poses[-1, 0] - 2.6, poses[-1, 1] - 2.5) <= 0.25
+    # the footprint never reached the wall
+    assert max(transform_footprint(FOOTPRINT, *p)[:, 0].max() for p in poses) < 3.0

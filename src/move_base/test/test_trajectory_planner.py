@@ -19,8 +19,8 @@ from move_base.trajectory_planner import (
     ROTATE,
     PlannerParams,
     TrajectoryPlanner,
-    _footprint_cost,
     adjust_plan_resolution,
+    footprint_cost,
 )
 
 # The seed's files (turtlebot_control/config): footprint padded by footprint_padding, and
@@ -160,26 +160,26 @@ def test_trajectory_accelerates_within_the_limit():
 def test_footprint_cost_rules():
     cm = Costmap2D(40, 40, 0.05)
     x, y = 1.0, 1.0
-    assert _footprint_cost(cm, x, y, 0.0, FOOTPRINT) == 0.0
+    assert footprint_cost(cm, x, y, 0.0, FOOTPRINT) == 0.0
     nose = cm.world_to_map(x + 0.25, y)
     cm.costs[nose[1], nose[0]] = 100
-    assert _footprint_cost(cm, x, y, 0.0, FOOTPRINT) == 100.0
+    assert footprint_cost(cm, x, y, 0.0, FOOTPRINT) == 100.0
     cm.costs[nose[1], nose[0]] = INSCRIBED_INFLATED_OBSTACLE  # inscribed on the outline is legal (ROS)
-    assert _footprint_cost(cm, x, y, 0.0, FOOTPRINT) == 253.0
+    assert footprint_cost(cm, x, y, 0.0, FOOTPRINT) == 253.0
     for value in (LETHAL_OBSTACLE, NO_INFORMATION):
         cm.costs[nose[1], nose[0]] = value
-        assert _footprint_cost(cm, x, y, 0.0, FOOTPRINT) == -1.0
+        assert footprint_cost(cm, x, y, 0.0, FOOTPRINT) == -1.0
     cm.costs[:] = 0
     # a lethal cell strictly inside the outline is not seen by the outline test
     centre = cm.world_to_map(x, y)
     cm.costs[centre[1], centre[0]] = LETHAL_OBSTACLE
-    assert _footprint_cost(cm, x, y, 0.0, FOOTPRINT) == 0.0
+    assert footprint_cost(cm, x, y, 0.0, FOOTPRINT) == 0.0
     # off the grid
-    assert _footprint_cost(cm, 0.1, 1.0, 0.0, FOOTPRINT) == -1.0
-    assert _footprint_cost(cm, -1.0, 1.0, 0.0, FOOTPRINT) == -1.0
+    assert footprint_cost(cm, 0.1, 1.0, 0.0, FOOTPRINT) == -1.0
+    assert footprint_cost(cm, -1.0, 1.0, 0.0, FOOTPRINT) == -1.0
     # circular robot (fewer than 3 points): the centre cell decides, inscribed included
     cm.costs[centre[1], centre[0]] = INSCRIBED_INFLATED_OBSTACLE
-    assert _footprint_cost(cm, x, y, 0.0, np.zeros((1, 2))) == -1.0
+    assert footprint_cost(cm, x, y, 0.0, np.zeros((1, 2))) == -1.0
 
 
 def test_footprint_cost_agrees_with_layers_footprint_cost():
@@ -192,7 +192,7 @@ def test_footprint_cost_agrees_with_layers_footprint_cost():
     for _ in range(300):
         x, y, th = rng.uniform(0.0, 3.0), rng.uniform(0.0, 3.0), rng.uniform(-math.pi, math.pi)
         ref = layers.footprint_cost(cm, transform_footprint(FOOTPRINT, x, y, th), (x, y))
-        got = _footprint_cost(cm, x, y, th, FOOTPRINT)
+        got = footprint_cost(cm, x, y, th, FOOTPRINT)
         assert (got < 0) == (ref < 0), (x, y, th)
         if ref >= 0:
             assert got == ref
@@ -273,7 +273,7 @@ def test_trajectories_hitting_an_obstacle_are_illegal():
     _, cost, best = tp.find_best_command(cm, 2.0, 5.0, 0.0, 0.5, 0.0, 0.0, straight_plan(2.0, 7.0, 5.0))
     assert cost >= 0
     for x, y, th in best:
-        assert _footprint_cost(cm, x, y, th, FOOTPRINT) >= 0
+        assert footprint_cost(cm, x, y, th, FOOTPRINT) >= 0
 
 
 def test_escape_when_boxed_in_then_leaves_escape_mode():

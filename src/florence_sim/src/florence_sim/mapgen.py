@@ -26,8 +26,12 @@ from florence_sim.world import WorldError, load_world
 OCCUPIED, FREE, UNKNOWN = 0, 254, 205
 
 
-def rasterize(world, laser_height):
-    """Occupancy image (rows from the top = highest y) as uint8 array, map_server values."""
+def rasterize(world, laser_height, top=None):
+    """Occupancy image (rows from the top = highest y) as uint8 array, map_server values.
+
+    With ``top`` [m], a keep-out map instead of the laser's view: a cell is occupied when any
+    obstacle between the floor and ``top`` (the robot's height) is there, table tops and chair
+    seats included, which the laser passes under but the robot does not."""
     (x0, y0), (x1, y1) = world.bounds
     res = world.resolution
     width = round((x1 - x0) / res)
@@ -40,7 +44,8 @@ def rasterize(world, laser_height):
     for room in world.rooms.values():
         inside = _points_in_polygon(points, np.asarray(room.polygon, dtype=float))
         grid[inside] = FREE
-    dist, _ = world.scene.clearance(points, z_max=laser_height + 1e-6, z_min=laser_height - 1e-6)
+    z_min, z_max = (0.0, top) if top is not None else (laser_height - 1e-6, laser_height + 1e-6)
+    dist, _ = world.scene.clearance(points, z_max=z_max, z_min=z_min)
     grid[dist <= res / 2] = OCCUPIED
     return np.flipud(grid.reshape(height, width))
 

@@ -39,6 +39,9 @@ ROS Publishers:
     base_pose_ground_truth (nav_msgs/Odometry): true pose, frame map, child base_footprint
     people_ground_truth (florence_sim/People), ~people_markers (visualization_msgs/MarkerArray)
     ~map (nav_msgs/OccupancyGrid, latched): the ground-truth map of the world at laser height
+    ~keepout_map (nav_msgs/OccupancyGrid, latched): the same grid with every obstacle between the
+        floor and the top of the robot (table tops, chair seats): where the robot cannot go
+        although the laser sees only legs there (move_base's global costmap uses it in simulation)
     collisions (std_msgs/UInt32, latched): number of bumper contacts so far
     (a message is built only when its topic has subscribers; /clock and tf always)
     tf map->odom when ~fake_localization
@@ -132,6 +135,7 @@ class SimNode:
         self.pub_people = P("people_ground_truth", People, queue_size=10)
         self.pub_markers = P("~people_markers", MarkerArray, queue_size=2)
         self.pub_map = P("~map", OccupancyGrid, queue_size=1, latch=True)
+        self.pub_keepout = P("~keepout_map", OccupancyGrid, queue_size=1, latch=True)
         self.pub_collisions = P("collisions", UInt32, queue_size=10, latch=True)
         self.tf = tf2_ros.TransformBroadcaster()
         self.msgs = _Messages(self.sim)
@@ -139,6 +143,8 @@ class SimNode:
         self.published_collisions = 0
 
         self.pub_map.publish(self.msgs.ground_truth_map(laser_height=self.sim.laser.mount[2, 3]))
+        self.pub_keepout.publish(self.msgs.ground_truth_map(laser_height=self.sim.laser.mount[2, 3],
+                                                            top=self.sim.base.cfg.height))
 
         rospy.Subscriber("cmd_vel", Twist, self._on_cmd_vel, queue_size=10)
         rospy.Subscriber("tilt_angle", Float64, self._on_tilt, queue_size=10)
@@ -538,13 +544,13 @@ class _Messages:
         msg.data = cloud.tobytes()
         return msg
 
-    def ground_truth_map(self, laser_height):
+    def ground_truth_map(self, laser_height, top=None):
         from nav_msgs.msg import OccupancyGrid
 
         from florence_sim.mapgen import FREE, OCCUPIED, rasterize
 
         world = self.sim.world
-        image = np.flipud(rasterize(world, laser_height))  # row 0 = lowest y, as OccupancyGrid wants
+        image = np.flipud(rasterize(world, laser_height, top))  # row 0 = lowest y, as OccupancyGrid wants
         grid = np.full(image.shape, -1, dtype=np.int8)
         grid[image == FREE] = 0
         grid[image == OCCUPIED] = 100

@@ -15,12 +15,15 @@ import math
 
 import numpy as np
 
-from move_base.trajectory_planner import TrajectoryPlanner
+from move_base.trajectory_planner import TrajectoryPlanner, footprint_cost
 
 log = logging.getLogger(__name__)
 
 _ZERO = (0.0, 0.0, 0.0)
 NO_VALID_TRAJECTORY = "no valid trajectory (all samples collide)"
+# [m] within this of the goal position a turn to the goal yaw that collides is a failure; farther
+# (at the edge of xy_goal_tolerance) the robot drives on toward the goal position first
+_AT_GOAL = 0.05
 
 
 def _sign(x):
@@ -153,19 +156,28 @@ class LocalPlanner:
                 self._reached_goal = True
                 return True, _ZERO, "goal reached"
             # ROS runs a full cycle here too: it refreshes the distance fields checkTrajectory uses.
-            self.planner.find_best_command(costmap, x, y, yaw, vx, vy, vth, window[:, :2])
-            if not self._rotating_to_goal and not self._stopped(vx, vy, vth):
-                ok, cmd = self._stop_with_acc_limits(costmap, x, y, yaw, vx, vy, vth)
+            best = self.planner.find_best_command(costmap, x, y, yaw, vx, vy, vth, window[:, :2])
+            if (not self._rotating_to_goal and math.hypot(goal_x - x, goal_y - y) > _AT_GOAL
+                    and not self._turn_is_free(costmap, x, y, yaw, goal_th)):
+                # Florence: a turn on the spot would collide here, at the edge of the tolerance (a
+                # goal near a wall): drive on toward the goal position and turn there (ROS fails).
+                self._xy_tolerance_latch = False
+            else:
+                if not self._rotating_to_goal and not self._stopped(vx, vy, vth):
+                    ok, cmd = self._stop_with_acc_limits(costmap, x, y, yaw, vx, vy, vth)
+                    if not ok:
+                        return False, _ZERO, ("cannot brake before rotating to the goal yaw: the braking "
+                                              "trajectory collides")
+                    return True, cmd, "braking before rotating to the goal yaw"
+                self._rotating_to_goal = True
+                ok, cmd = self._rotate_to_goal(costmap, x, y, yaw, vx, vy, vth, goal_th)
                 if not ok:
-                    return False, _ZERO, "cannot brake before rotating to the goal yaw: the braking trajectory collides"
-                return True, cmd, "braking before rotating to the goal yaw"
-            self._rotating_to_goal = True
-            ok, cmd = self._rotate_to_goal(costmap, x, y, yaw, vx, vy, vth, goal_th)
-            if not ok:
-                return False, _ZERO, "cannot rotate to the goal yaw: the rotation collides"
-            return True, cmd, "rotating to the goal yaw"
+                    return False, _ZERO, "cannot rotate to the goal yaw: the rotation collides"
+                return True, cmd, "rotating to the goal yaw"
 
-        cmd, cost, points = self.planner.find_best_command(costmap, x, y, yaw, vx, vy, vth, window[:, :2])
+        else:
+            best = self.planner.find_best_command(costmap, x, y, yaw, vx, vy, vth, window[:, :2])
+        cmd, cost, points = best
         if cost < 0:
             log.debug("no legal trajectory (cost %.1f)", cost)
             return False, _ZERO, NO_VALID_TRAJECTORY
@@ -173,6 +185,16 @@ class LocalPlanner:
         return True, cmd, ""
 
     # --- near the goal ---------------------------------------------------------------------
+    def _turn_is_free(self, costmap, x, y, yaw, goal_th, beyond=0.0):
+        """Whether the footprint stays clear of lethal cells over the whole turn on the spot from
+        ``yaw`` to ``goal_th`` [rad] (the shorter way) and ``beyond`` [rad] past it, checked every
+        0.05 rad."""
+        diff = _angle_diff(yaw, goal_th)
+        diff += math.copysign(beyond, diff)
+        steps = max(1, math.ceil(abs(diff) / 0.05))
+        return all(footprint_cost(costmap, x, y, yaw + diff * i / steps, self.planner.footprint) >= 0.0
+                   for i in range(steps + 1))
+
     def _stopped(self, vx, vy, vth):
         """base_local_planner::stopped: every velocity within its stopped threshold."""
         p = self.params
@@ -210,6 +232,10 @@ class LocalPlanner:
             v = min(p.max_vel_theta, max(p.min_in_place_vel_theta, v))
         else:
             v = max(p.min_vel_theta, min(-p.min_in_place_vel_theta, v))
-        if self.planner.check_trajectory(costmap, x, y, yaw, vx, vy, vth, 0.0, 0.0, v):
+        # Florence: the turn is checked up to the goal yaw and the overshoot of braking from v once
+        # the goal is reached. ROS checks sim_time of turning at v, which runs far past the goal yaw,
+        # and gave up on goals near walls.
+        overshoot = max(0.0, v * v / (2.0 * p.acc_lim_theta) - p.yaw_goal_tolerance)  # after "reached"
+        if self._turn_is_free(costmap, x, y, yaw, goal_th, overshoot):
             return True, (0.0, 0.0, v)
         return False, _ZERO

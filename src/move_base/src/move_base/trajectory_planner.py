@@ -525,7 +525,7 @@ def _rollout_nb(x, y, yaw, vx, vy, vth, samples, dts, t_max, acc_x, acc_y, acc_t
     return pts
 
 
-def _footprint_cost(costmap, x, y, yaw, footprint):
+def footprint_cost(costmap, x, y, yaw, footprint):
     """Cost of the robot's footprint outline at (x [m], y [m], yaw [rad]) on ``costmap``, as
     base_local_planner's CostmapModel::footprintCost: -1.0 when the outline crosses a LETHAL or
     NO_INFORMATION cell or leaves the grid, else the highest cost on the outline cells.
