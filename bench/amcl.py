@@ -24,7 +24,7 @@ Writes bench/results/amcl.json and bench/results/amcl.png (estimated vs true pat
 runs the same tour and global localizations without ROS (amcl.sim_offline: florence_sim's core and the
 amcl core in one process, the launch file's values, repeatable per seed) and writes
 bench/results/amcl_offline.json: per seed the position / yaw RMS after convergence and the mean error
-along and across the heading (the bias), per start the distance to converge.
+along and across the heading (the bias), per start the distance to converge, and the update time of step 3.
 """
 
 import argparse
@@ -140,8 +140,12 @@ def offline(args):
                            "driven_m": run.travelled[-1] if run.travelled else 0.0})
             print(f"global seed {seed} start {i}: {trials[-1]}", flush=True)
     within = [t for t in trials if t["distance_to_converge_m"] is not None and t["distance_to_converge_m"] <= 10.0]
+    print(f"global localization: converged within 10 m in {len(within)}/{len(trials)}", flush=True)
+    micro = micro_benchmark()
+    print(f"update time, 500 particles, 60 beams: {json.dumps(micro)}", flush=True)
     return {"command": "bench/amcl.py " + " ".join(sys.argv[1:]), "tracking": tracking,
             "global_localization": {"trials": trials, "converged_within_10_m": f"{len(within)}/{len(trials)}"},
+            "update_time_500_particles_60_beams": micro,
             "note": "offline: florence_sim core + amcl core in one process, apartment without people, "
                     "amcl_turtlebot_control.launch values; errors after convergence (0.1 m / 5 deg)"}
 

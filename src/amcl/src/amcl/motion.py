@@ -8,6 +8,10 @@ Probabilistic Robotics (table 5.6) but the original code passes them to the Gaus
 sampler as *standard deviations*. With the usual alphas (0.2) and small steps that makes
 the noise much smaller than the book's. ``diff-corrected`` uses the square roots (the
 book's model); ROS recommends much smaller alphas with it (e.g. 0.005 .. 0.05).
+The difference matters for global localization: resampling duplicates particles and only
+the motion noise spreads the copies. With ``diff``, alphas 0.2 and 0.1 m updates that noise
+is a few millimetres, so copies of a particle 0.2 m off the true pose never reach it
+(see amcl_turtlebot_control.launch, which uses diff-corrected for that reason).
 
 Both decompose the odometry step into rot1 / trans / rot2, and, like ROS, measure the
 rotation noise against the nearer of "forward" and "backward" so that reversing does
