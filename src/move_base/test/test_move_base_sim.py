@@ -107,7 +107,6 @@ def test_rejects_bad_goals_with_a_reason(nav):
     assert session.collisions == 0
 
 
-@pytest.mark.nav_scenario
 def test_every_pair_of_room_hotspots(nav):
     session, stack = nav
     legs = []
@@ -125,7 +124,6 @@ def test_every_pair_of_room_hotspots(nav):
     print("\n".join(legs))
 
 
-@pytest.mark.nav_scenario
 def test_person_stepping_into_the_corridor_is_avoided(nav):
     import rospy
 

@@ -92,9 +92,10 @@ class LocalPlanner:
     def set_plan(self, poses):
         """New global plan (N, 3) [m, m, rad]; clears the goal-reached flag.
 
-        A plan to a new goal also clears the xy goal latch, the rotation to the goal yaw and the
-        oscillation / escape state. A plan that ends at the same goal pose (move_base replanning at
-        planner_frequency) keeps them: ROS clears the latch on every setPlan, so with replanning
+        Every plan clears the oscillation flags and ends an escape, so a replan gives the robot
+        that backed up (or was kept from turning back) a fresh start. A plan to a new goal also
+        clears the xy goal latch and the rotation to the goal yaw; a plan that ends at the same goal
+        pose (move_base replanning at planner_frequency) keeps them: ROS clears the latch on every setPlan, so with replanning
         the robot that had reached the goal position braked and drove again once a second instead
         of turning on the spot (measured in florence_sim: a 0.56 m leg with a half turn at the goal
         took 9.6 s, the turn stuttering between 1.0 rad/s and a stop)."""
@@ -104,12 +105,11 @@ class LocalPlanner:
         self.global_plan = poses.copy()
         self._goal = poses[-1].copy() if len(poses) else None
         self._reached_goal = False
-        if same_goal:
-            return True
-        self._xy_tolerance_latch = False
-        self._rotating_to_goal = False
         self.planner.reset_oscillation_flags()
         self.planner.escaping = False
+        if not same_goal:
+            self._xy_tolerance_latch = False
+            self._rotating_to_goal = False
         return True
 
     def is_goal_reached(self):
