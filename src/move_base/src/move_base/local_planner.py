@@ -95,10 +95,10 @@ class LocalPlanner:
         Every plan clears the oscillation flags and ends an escape, so a replan gives the robot
         that backed up (or was kept from turning back) a fresh start. A plan to a new goal also
         clears the xy goal latch and the rotation to the goal yaw; a plan that ends at the same goal
-        pose (move_base replanning at planner_frequency) keeps them: ROS clears the latch on every setPlan, so with replanning
-        the robot that had reached the goal position braked and drove again once a second instead
-        of turning on the spot (measured in florence_sim: a 0.56 m leg with a half turn at the goal
-        took 9.6 s, the turn stuttering between 1.0 rad/s and a stop)."""
+        pose (move_base replanning at planner_frequency) keeps them: ROS clears the latch on every
+        setPlan, so with replanning the robot that had reached the goal position braked and drove
+        again once a second instead of turning on the spot (measured in florence_sim: a 0.56 m leg
+        with a half turn at the goal took 9.6 s, the turn stuttering between 1.0 rad/s and a stop)."""
         poses = np.asarray(poses, dtype=float).reshape(-1, 3)
         same_goal = (self._goal is not None and len(poses) > 0
                      and np.allclose(poses[-1], self._goal, rtol=0.0, atol=1e-9))
