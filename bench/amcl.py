@@ -106,12 +106,8 @@ def plot(path, grid, truth, est, title):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    h, w = grid.data.shape
-    x0, y0 = grid.origin[:2]
-    extent = (x0, x0 + w * grid.resolution, y0, y0 + h * grid.resolution)
-    image = np.where(grid.data == 100, 0.0, np.where(grid.data == 0, 1.0, 0.7))
     fig, ax = plt.subplots(figsize=(7, 8.5))
-    ax.imshow(image, cmap="gray", origin="lower", extent=extent, vmin=0, vmax=1)
+    ax.imshow(grid.shades(), cmap="gray", origin="lower", extent=grid.extent, vmin=0, vmax=1)
     ax.plot(truth[:, 0], truth[:, 1], "-", color="tab:green", lw=1.5, label="ground truth")
     ax.plot(est[:, 0], est[:, 1], ".", color="tab:red", ms=3, label="amcl_pose")
     ax.set_xlabel("x [m]")

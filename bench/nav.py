@@ -52,16 +52,6 @@ def cpu_seconds(pid):
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
-class Grid:
-    """An OccupancyGrid message as arrays: data (H, W) int8 with row 0 at the lowest y, resolution
-    [m], origin (x, y) [m]."""
-
-    def __init__(self, msg):
-        self.data = np.asarray(msg.data, dtype=np.int8).reshape(msg.info.height, msg.info.width)
-        self.resolution = msg.info.resolution
-        self.origin = (msg.info.origin.position.x, msg.info.origin.position.y)
-
-
 def random_goals(grid, count, clearance, rng):
     """``count`` poses (x, y, yaw) on free cells at least ``clearance`` [m] from any non-free cell."""
     from scipy.ndimage import distance_transform_edt
@@ -129,12 +119,8 @@ def plot(path, grid, legs, title):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    h, w = grid.data.shape
-    x0, y0 = grid.origin[:2]
-    extent = (x0, x0 + w * grid.resolution, y0, y0 + h * grid.resolution)
-    image = np.where(grid.data == 100, 0.0, np.where(grid.data == 0, 1.0, 0.7))
     fig, ax = plt.subplots(figsize=(7, 8.5))
-    ax.imshow(image, cmap="gray", origin="lower", extent=extent, vmin=0, vmax=1)
+    ax.imshow(grid.shades(), cmap="gray", origin="lower", extent=grid.extent, vmin=0, vmax=1)
     for leg in legs:
         track = np.asarray(leg["track"])
         if len(track):
@@ -182,9 +168,10 @@ def main():
         time.sleep(1.0)
         # goals come from the map move_base plans on: florence_sim's keep-out map (table tops and
         # chair seats marked), so no goal is under a table
+        from map_server.node import msg_to_grid
         from nav_msgs.msg import OccupancyGrid
 
-        grid = Grid(rospy.wait_for_message("/florence_sim/keepout_map", OccupancyGrid, timeout=60))
+        grid = msg_to_grid(rospy.wait_for_message("/florence_sim/keepout_map", OccupancyGrid, timeout=60))
         rospy.wait_for_service("/move_base/make_plan", 60)
         make_plan = rospy.ServiceProxy("/move_base/make_plan", GetPlan)
         pid = node_pid(master.uri, "/move_base")

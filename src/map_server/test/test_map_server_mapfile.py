@@ -173,3 +173,10 @@ def test_failed_save_leaves_no_partial_file(tmp_path, monkeypatch):
         save_map(grid, str(tmp_path / "old"))
     assert (tmp_path / "old.pgm").read_bytes() == b"old"
     assert sorted(os.listdir(tmp_path)) == ["old.pgm"]
+
+
+def test_grid_extent_and_shades_for_pictures():
+    data = np.array([[0, 100], [-1, 55]], dtype=np.int8)
+    grid = GridMap(data=data, resolution=0.5, origin=(-1.0, 2.0, 0.0))
+    assert grid.extent == (-1.0, 0.0, 2.0, 3.0)
+    np.testing.assert_array_equal(grid.shades(), [[1.0, 0.0], [0.7, 0.7]])

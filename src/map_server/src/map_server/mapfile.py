@@ -73,6 +73,17 @@ class GridMap:
     def width(self):
         return self.data.shape[1]
 
+    @property
+    def extent(self):
+        """(left, right, bottom, top) [m] of the grid (origin yaw 0), for matplotlib's imshow with
+        origin="lower"."""
+        x0, y0 = self.origin[:2]
+        return (x0, x0 + self.width * self.resolution, y0, y0 + self.height * self.resolution)
+
+    def shades(self):
+        """The grid as grey levels for a picture: occupied 0.0, free 1.0, anything else 0.7."""
+        return np.where(self.data == 100, 0.0, np.where(self.data == 0, 1.0, 0.7))
+
 
 def _number(doc, name, where):
     value = doc.get(name)
