@@ -88,6 +88,7 @@ class LocalPlanner:
         self._rotating_to_goal = False
         self._reached_goal = False
         self._goal = None  # the last pose of the plan set last
+        self._last_cmd = _ZERO  # the command of the last cycle
 
     def set_plan(self, poses):
         """New global plan (N, 3) [m, m, rad]; clears the goal-reached flag.
@@ -116,7 +117,7 @@ class LocalPlanner:
         """True once the robot was within both goal tolerances (since the last :meth:`set_plan`)."""
         return self._reached_goal
 
-    def compute_velocity(self, costmap, robot_pose, robot_vel, plan):  # noqa: PLR0911 - one return per outcome
+    def compute_velocity(self, costmap, robot_pose, robot_vel, plan):
         """One control cycle (computeVelocityCommands).
 
         Args:
@@ -129,13 +130,20 @@ class LocalPlanner:
             (ok, cmd (vx, vy, vth), reason): ok False means no command could be computed (cmd is
             zero); reason says why (or what the robot is doing near the goal).
         """
+        ok, cmd, reason = self._compute_velocity(costmap, robot_pose, robot_vel, plan)
+        self._last_cmd = tuple(float(c) for c in cmd)
+        return ok, cmd, reason
+
+    def _compute_velocity(self, costmap, robot_pose, robot_vel, plan):  # noqa: PLR0911 - one return per outcome
+        """:meth:`compute_velocity` without the record of the command."""
         p = self.params
         x, y, yaw = (float(v) for v in robot_pose)
         vx, vy, vth = (float(v) for v in robot_vel)
         plan = np.asarray(plan, dtype=float).reshape(-1, 3)
         self.local_plan = np.empty((0, 3))
 
-        window, _ = clip_plan(costmap, (x, y), plan)
+        window, first = clip_plan(costmap, (x, y), plan)
+        holds_goal = len(window) > 0 and first + len(window) == len(plan)  # the window ends at the goal
         if p.prune_plan and len(window):
             pruned = prune_count((x, y), window)
             window = window[pruned:]
@@ -163,7 +171,13 @@ class LocalPlanner:
                 # goal near a wall): drive on toward the goal position and turn there (ROS fails).
                 self._xy_tolerance_latch = False
             else:
-                if not self._rotating_to_goal and not self._stopped(vx, vy, vth):
+                moving = (not self._stopped_moving(vx, vy) if p.rotate_while_braking
+                          else not self._stopped(vx, vy, vth))
+                if not self._rotating_to_goal and moving:
+                    if p.rotate_while_braking:
+                        cmd = self._brake_and_turn(costmap, x, y, yaw, vx, vy, vth, goal_th)
+                        if cmd is not None:
+                            return True, cmd, "braking and turning to the goal yaw"
                     ok, cmd = self._stop_with_acc_limits(costmap, x, y, yaw, vx, vy, vth)
                     if not ok:
                         return False, _ZERO, ("cannot brake before rotating to the goal yaw: the braking "
@@ -176,6 +190,10 @@ class LocalPlanner:
                 return True, cmd, "rotating to the goal yaw"
 
         else:
+            if holds_goal and p.final_approach_dist > 0.0:
+                cmd = self._final_approach(costmap, x, y, yaw, vx, vth, window)
+                if cmd is not None:
+                    return True, cmd, "final approach"
             best = self.planner.find_best_command(costmap, x, y, yaw, vx, vy, vth, window[:, :2])
         cmd, cost, points = best
         if cost < 0:
@@ -194,6 +212,99 @@ class LocalPlanner:
         steps = max(1, math.ceil(abs(diff) / 0.05))
         return all(footprint_cost(costmap, x, y, yaw + diff * i / steps, self.planner.footprint) >= 0.0
                    for i in range(steps + 1))
+
+    def _ramp_from(self, measured, index, acc):
+        """The velocity an acceleration-limited step starts from: the last command's component
+        ``index`` when the odometry ``measured`` is within two steps of it (the base is still
+        catching up with it: stepping from odometry would halve the acceleration on a base that
+        lags by a cycle), else ``measured``."""
+        last = self._last_cmd[index]
+        return last if abs(last - measured) <= 2.0 * acc * self.params.sim_period else measured
+
+    def _final_approach(self, costmap, x, y, yaw, vx, vth, window):
+        """Florence's final approach (``final_approach_dist``): the command (vx, 0, vth) that drives
+        at min(max_vel_x, sqrt(2 acc_lim_x d)) toward the goal d [m] away, steering by pure pursuit
+        onto the plan, or None to leave the cycle to the rollouts: the goal is farther, the plan
+        bends on the way there (its length > 1.2 d + 0.1 m), the plan is not ahead (> 0.8 rad off the
+        heading), or braking to a stop from that command would put the footprint on a lethal cell.
+
+        ROS's rollouts score the goal distance at the end of sim_time, so near the goal the robot
+        picks about d / sim_time and creeps the last metre (measured in florence_sim: 2.0 s from
+        0.8 m to the 0.25 m tolerance, 1.1 s at max_vel_x)."""
+        p = self.params
+        goal = window[-1, :2]
+        d = math.hypot(goal[0] - x, goal[1] - y)
+        if d > p.final_approach_dist:
+            return None
+        near = int(np.argmin(np.hypot(window[:, 0] - x, window[:, 1] - y)))
+        rest = window[near:, :2]
+        if float(np.sum(np.hypot(*np.diff(rest, axis=0).T))) > 1.2 * d + 0.1:
+            return None
+        # pure pursuit: the first plan point at least 0.4 m away (or the goal)
+        ahead = np.hypot(rest[:, 0] - x, rest[:, 1] - y) >= min(0.4, d)
+        tx, ty = rest[int(np.argmax(ahead))] if ahead.any() else goal
+        lookahead = math.hypot(tx - x, ty - y)
+        alpha = _angle_diff(yaw, math.atan2(ty - y, tx - x))
+        if abs(alpha) > 0.8 or lookahead < 1e-6:
+            return None
+        dt = p.sim_period
+        vx, vth = self._ramp_from(vx, 0, p.acc_lim_x), self._ramp_from(vth, 2, p.acc_lim_theta)
+        v = max(p.min_vel_x, min(p.max_vel_x, math.sqrt(2.0 * p.acc_lim_x * d)))
+        v = min(max(v, vx - p.acc_lim_x * dt), vx + p.acc_lim_x * dt)
+        w = v * 2.0 * math.sin(alpha) / lookahead
+        w = min(max(w, vth - p.acc_lim_theta * dt, p.min_vel_theta), vth + p.acc_lim_theta * dt, p.max_vel_theta)
+        points = self._braking_path(x, y, yaw, v, w, hold=dt)
+        if not self._path_is_free(costmap, points):
+            return None
+        self.local_plan = points
+        return (v, 0.0, w)
+
+    def _brake_and_turn(self, costmap, x, y, yaw, vx, vy, vth, goal_th):
+        """``rotate_while_braking``: slow the translation by acc_lim_x over one control period while
+        the rotation speeds up toward the goal yaw (as :meth:`_rotate_to_goal`, without the in-place
+        minimum); None when the braking arc or the rest of the turn at its end would collide."""
+        p = self.params
+        dt = p.sim_period
+        vx, vth = self._ramp_from(vx, 0, p.acc_lim_x), self._ramp_from(vth, 2, p.acc_lim_theta)
+        cvx = _sign(vx) * max(0.0, abs(vx) - p.acc_lim_x * dt)
+        cvy = _sign(vy) * max(0.0, abs(vy) - p.acc_lim_y * dt)
+        ang_diff = _angle_diff(yaw, goal_th)
+        want = math.copysign(min(p.max_vel_theta, math.sqrt(2.0 * p.acc_lim_theta * abs(ang_diff))), ang_diff)
+        cvth = min(max(want, vth - p.acc_lim_theta * dt), vth + p.acc_lim_theta * dt)
+        if abs(cvy) > 0.0:
+            return None  # a holonomic base strafing: ROS's braking, then the turn
+        points = self._braking_path(x, y, yaw, cvx, cvth, hold=0.0)
+        if not self._path_is_free(costmap, points):
+            return None
+        sx, sy, syaw = points[-1]
+        overshoot = max(0.0, cvth * cvth / (2.0 * p.acc_lim_theta) - p.yaw_goal_tolerance)
+        if not self._turn_is_free(costmap, sx, sy, syaw, goal_th, overshoot):
+            return None
+        return (cvx, cvy, cvth)
+
+    def _braking_path(self, x, y, yaw, v, w, hold):
+        """Poses (K, 3) of driving at (v [m/s], w [rad/s]) for ``hold`` [s], then braking the
+        translation at acc_lim_x to a stop with w held, every sim_granularity [m] (at least 4 steps)."""
+        p = self.params
+        t_stop = hold + abs(v) / p.acc_lim_x
+        length = abs(v) * hold + v * v / (2.0 * p.acc_lim_x)
+        steps = max(4, math.ceil(length / p.sim_granularity))
+        t = np.linspace(0.0, t_stop, steps + 1)
+        h = t[1] - t[0]
+        speed = np.where(t < hold, v, _sign(v) * np.maximum(0.0, abs(v) - p.acc_lim_x * (t - hold)))
+        th = yaw + w * t
+        px = x + np.concatenate([[0.0], np.cumsum(speed[:-1] * np.cos(th[:-1]) * h)])
+        py = y + np.concatenate([[0.0], np.cumsum(speed[:-1] * np.sin(th[:-1]) * h)])
+        return np.column_stack([px, py, th])
+
+    def _path_is_free(self, costmap, points):
+        """Whether the footprint stays clear of lethal cells at every pose of ``points`` (K, 3)."""
+        return all(footprint_cost(costmap, px, py, pth, self.planner.footprint) >= 0.0 for px, py, pth in points)
+
+    def _stopped_moving(self, vx, vy):
+        """Translation within trans_stopped_velocity (the rotation may go on)."""
+        p = self.params
+        return abs(vx) <= p.trans_stopped_velocity and abs(vy) <= p.trans_stopped_velocity
 
     def _stopped(self, vx, vy, vth):
         """base_local_planner::stopped: every velocity within its stopped threshold."""

@@ -79,6 +79,15 @@ class PlannerParams:
         trans_stopped_velocity (0.1 m/s), rot_stopped_velocity (0.1 rad/s): "stopped" thresholds
             before rotating to the goal yaw.
         controller_frequency (float, 20.0, Hz): move_base's; the DWA window is 1/frequency.
+
+    Florence additions (off by default, which is ROS's behaviour; used by
+    :class:`move_base.local_planner.LocalPlanner`):
+        final_approach_dist (float, 0.0, m): within this distance of the final goal, with the goal
+            ahead along a straight stretch of plan, drive at the speed that can still brake to a stop
+            at the goal (sqrt(2 acc_lim_x d)) and steer onto the plan, instead of the rollouts, whose
+            goal distance at the end of sim_time slows the robot to about d / sim_time.
+        rotate_while_braking (bool, false): once within xy_goal_tolerance, start turning to the goal
+            yaw while braking (ROS stops first, then turns on the spot).
     """
 
     acc_lim_x: float = 2.5
@@ -116,6 +125,8 @@ class PlannerParams:
     trans_stopped_velocity: float = 0.1
     rot_stopped_velocity: float = 0.1
     controller_frequency: float = 20.0
+    final_approach_dist: float = 0.0
+    rotate_while_braking: bool = False
 
     def __post_init__(self):
         if self.angular_sim_granularity is None:
@@ -153,7 +164,8 @@ class PlannerParams:
         non_negative = ("min_in_place_vel_theta", "path_distance_bias", "goal_distance_bias", "occdist_scale",
                         "heading_lookahead", "heading_scoring_timestep", "oscillation_reset_dist",
                         "escape_reset_dist", "escape_reset_theta", "xy_goal_tolerance", "yaw_goal_tolerance",
-                        "trans_stopped_velocity", "rot_stopped_velocity", "max_vel_x", "max_vel_theta")
+                        "trans_stopped_velocity", "rot_stopped_velocity", "max_vel_x", "max_vel_theta",
+                        "final_approach_dist")
         for name in non_negative:
             if getattr(self, name) < 0.0:
                 raise ValueError(f"{name} must not be negative, got {getattr(self, name)}")
