@@ -125,9 +125,24 @@ def test_stale_command_stream_stops_the_robot():
 
 
 @pytest.mark.parametrize(("v", "w", "expect"), [(1.0, 0.0, (0.5, 0.0)), (0.0, 10.0, (0.0, 1.0 / 0.26)),
-                                                (0.5, 1.0, (0.435, 0.5)), (0.2, 0.5, (0.2, 0.5))])
+                                                (0.5, 1.0, (0.5 * 0.5 / 0.63, 0.5 / 0.63)), (0.2, 0.5, (0.2, 0.5)),
+                                                (-0.5, -1.0, (-0.5 * 0.5 / 0.63, -0.5 / 0.63))])
 def test_wheel_speed_limit_of_the_create(v, w, expect):
+    # (0.5 m/s, 1 rad/s) asks 0.63 m/s of the outer wheel: both wheels scaled by 0.5 / 0.63, the
+    # turning radius v / w = 0.5 m kept
     assert clamp_to_wheels(v, w, 0.26, 0.5) == pytest.approx(expect, abs=1e-9)
+
+
+@pytest.mark.parametrize(("v", "w"), [(0.5, 1.37), (0.42, -1.5), (0.3, 0.4), (-0.1, 2.0), (0.0, 5.0)])
+def test_wheel_speed_limit_matches_the_driver(v, w):
+    """The simulated base limits the wheels as the real driver does (turtlebot_node)."""
+    from turtlebot_node import oi_spec
+    from turtlebot_node.create_oi import twist_to_wheels
+
+    right, left = twist_to_wheels(v, w, oi_spec.WHEEL_BASE)  # [mm/s], rounded
+    sv, sw = clamp_to_wheels(v, w, oi_spec.WHEEL_BASE, oi_spec.MAX_WHEEL_SPEED / 1000.0)
+    assert (sv + sw * oi_spec.WHEEL_BASE / 2) * 1000.0 == pytest.approx(right, abs=0.5)
+    assert (sv - sw * oi_spec.WHEEL_BASE / 2) * 1000.0 == pytest.approx(left, abs=0.5)
 
 
 def test_acceleration_is_limited():

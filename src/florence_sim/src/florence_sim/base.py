@@ -53,11 +53,14 @@ class BaseConfig:
 
 
 def clamp_to_wheels(v, w, separation, max_wheel):
-    """(v, w) after limiting each wheel to +-max_wheel [m/s], as the Create driver does."""
+    """(v, w) after limiting the wheels to +-max_wheel [m/s] as turtlebot_node does
+    (create_oi.twist_to_wheels): when a wheel would be faster, both are scaled down together, so
+    the turning radius is kept and the robot drives the arc it was asked to, more slowly."""
     right = v + w * separation / 2
     left = v - w * separation / 2
-    right = max(-max_wheel, min(max_wheel, right))
-    left = max(-max_wheel, min(max_wheel, left))
+    peak = max(abs(right), abs(left))
+    if peak > max_wheel:
+        right, left = right * max_wheel / peak, left * max_wheel / peak
     return (right + left) / 2, (right - left) / separation
 
 
