@@ -136,8 +136,9 @@ def test_wheel_speed_limit_of_the_create(v, w, expect):
 @pytest.mark.parametrize(("v", "w"), [(0.5, 1.37), (0.42, -1.5), (0.3, 0.4), (-0.1, 2.0), (0.0, 5.0)])
 def test_wheel_speed_limit_matches_the_driver(v, w):
     """The simulated base limits the wheels as the real driver does (turtlebot_node)."""
-    from turtlebot_node import oi_spec
     from turtlebot_node.create_oi import twist_to_wheels
+
+    from turtlebot_node import oi_spec
 
     right, left = twist_to_wheels(v, w, oi_spec.WHEEL_BASE)  # [mm/s], rounded
     sv, sw = clamp_to_wheels(v, w, oi_spec.WHEEL_BASE, oi_spec.MAX_WHEEL_SPEED / 1000.0)
