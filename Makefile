@@ -45,7 +45,6 @@ lint: setup
 test: build lint
 	$(SOURCE) && /usr/bin/python3 -m pytest $(PYTEST_ARGS)
 
-# Navigation scenarios that still fail about 1 run in 4 (issue 6); not part of `make test` until fixed.
 bench: build
 	$(SOURCE) && for b in $(WS)/bench/*.py; do /usr/bin/python3 "$$b" || exit 1; done
 

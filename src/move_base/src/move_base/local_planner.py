@@ -210,8 +210,7 @@ class LocalPlanner:
         diff = _angle_diff(yaw, goal_th)
         diff += math.copysign(beyond, diff)
         steps = max(1, math.ceil(abs(diff) / 0.05))
-        return all(footprint_cost(costmap, x, y, yaw + diff * i / steps, self.planner.footprint) >= 0.0
-                   for i in range(steps + 1))
+        return self._path_is_free(costmap, ((x, y, yaw + diff * i / steps) for i in range(steps + 1)))
 
     def _ramp_from(self, measured, index, acc):
         """The velocity an acceleration-limited step starts from: the last command's component
@@ -298,7 +297,7 @@ class LocalPlanner:
         return np.column_stack([px, py, th])
 
     def _path_is_free(self, costmap, points):
-        """Whether the footprint stays clear of lethal cells at every pose of ``points`` (K, 3)."""
+        """Whether the footprint stays clear of lethal cells at every pose (x, y, yaw) of ``points``."""
         return all(footprint_cost(costmap, px, py, pth, self.planner.footprint) >= 0.0 for px, py, pth in points)
 
     def _stopped_moving(self, vx, vy):
