@@ -167,10 +167,18 @@ def test_cancel_mid_route_stops_the_robot(nav):
     commands = []
     sub = rospy.Subscriber("/cmd_vel_mux/input/move_base", Twist,
                            lambda m: commands.append((session.sim_now(), m.linear.x, m.angular.z)), queue_size=50)
+    # move_base reports a goal reached once within its tolerances, and the base may still be braking
+    # then: start from rest, so that 'driving' below is this goal's doing
+    before = session.latest()
+    assert session.wait_still(), f"the robot did not come to rest: {session.latest()}"
+    print(f"at the start: v {before[4]:.2f} m/s, w {before[5]:.2f} rad/s; at rest "
+          f"{session.sim_now() - before[0]:.2f} s later")
     try:
         x, y, yaw = hotspot("living_room")
         session.send(x, y, yaw)
-        wait_for(lambda: session.latest()[4] > 0.2, 120, what="the robot driving at more than 0.2 m/s")
+        # a cancel that reaches move_base before its goal recalls the goal: cancel an accepted one
+        wait_for(lambda: session.is_active() and session.latest()[4] > 0.2, 120,
+                 what="move_base working on the goal and the robot driving at more than 0.2 m/s")
         at_cancel = session.latest()
         t_cancel = at_cancel[0]
         session.client.cancel_goal()

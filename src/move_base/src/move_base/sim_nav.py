@@ -76,6 +76,22 @@ class NavSession:
         with self.lock:
             return np.array([row for row in self.truth if row[0] >= since]).reshape(-1, 6)
 
+    def is_active(self):
+        """Whether move_base has accepted the current goal and works on it (ACTIVE)."""
+        return self.client.get_state() == GoalStatus.ACTIVE
+
+    def wait_still(self, sim_time=0.5, timeout=60.0, v=0.01, w=0.01):
+        """Wait (wall ``timeout``) until the ground truth speeds stayed within ``v`` [m/s] and ``w``
+        [rad/s] for ``sim_time`` simulated seconds; False if the robot did not come to rest."""
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            track = self.track(since=self.sim_now() - sim_time)
+            if (len(track) > 1 and track[-1, 0] - track[0, 0] >= 0.9 * sim_time
+                    and np.all(np.abs(track[:, 4]) <= v) and np.all(np.abs(track[:, 5]) <= w)):
+                return True
+            time.sleep(0.02)
+        return False
+
     def wait_ready(self, timeout=120.0):
         """Wait (wall time) for the action server and ground truth; False if they did not come."""
         deadline = time.monotonic() + timeout
