@@ -87,6 +87,17 @@ def time_breakdown(track):
             "standing_s": float(dt[~moving & ~turning].sum())}
 
 
+def time_to_rest(track, t0, v=0.01, w=0.01):
+    """Simulated seconds from ``t0`` until the ground-truth track (t, x, y, yaw, v, w) came to rest
+    for good (speeds within ``v`` [m/s] and ``w`` [rad/s] from then on)."""
+    track = np.asarray(track)
+    moving = np.nonzero((np.abs(track[:, 4]) > v) | (np.abs(track[:, 5]) > w))[0]
+    if len(moving) == 0:
+        return 0.0
+    last = moving[-1]
+    return float(track[min(last + 1, len(track) - 1), 0] - t0)
+
+
 def plan_length(make_plan, start, goal):
     from geometry_msgs.msg import PoseStamped
 
@@ -190,16 +201,22 @@ def main():
             collisions_before = session.collisions
             t0 = session.sim_now()
             state, text, took, driven = session.go(*goal, sim_timeout=args.leg_timeout)
+            # move_base ends a goal once within its tolerances (TrajectoryPlannerROS); the base may
+            # still be braking then. Each leg starts from rest, and the bench says when rest came.
+            session.wait_still(sim_time=0.3)
             track = session.track(since=t0)
+            rest = time_to_rest(track, t0)
+            track = track[track[:, 0] <= t0 + took]
             legs.append({
                 "goal": [float(v) for v in goal], "state": state, "text": text, "time_s": took,
                 "plan_length_m": ideal, "driven_m": driven, "ratio": took / (ideal / MAX_VEL_X),
                 "turns_s": turns, "ratio_with_turns": took / (ideal / MAX_VEL_X + turns),
+                "rest_s": rest, "ratio_to_rest": rest / (ideal / MAX_VEL_X),
                 **time_breakdown(track),
                 "collisions": session.collisions - collisions_before, "track": track[::5].round(3).tolist(),
             })
-            print(f"{len(legs):3d}: {state:9s} {took:6.1f} s plan {ideal:5.2f} m ratio "
-                  f"{legs[-1]['ratio']:4.2f} {text if state != 'SUCCEEDED' else ''}", flush=True)
+            print(f"{len(legs):3d}: {state:9s} {took:6.1f} s plan {ideal:5.2f} m ratio {legs[-1]['ratio']:4.2f} "
+                  f"(at rest {rest - took:+.1f} s) {text if state != 'SUCCEEDED' else ''}", flush=True)
         cpu = cpu_seconds(pid) - cpu0
         sim_total, wall_total = session.sim_now() - sim0, time.monotonic() - wall0
 
@@ -215,6 +232,11 @@ def main():
             # heading onto the plan and from the plan's last heading to the goal yaw (max_rotational_vel,
             # velocity_filter's angular acceleration): what the random goal yaws cost at best
             "time_ratio_with_turns_median": float(np.median([leg["ratio_with_turns"] for leg in ok])) if ok else None,
+            # the same to the moment the base is at rest (the goal ends while it may still brake or
+            # finish its turn under velocity_filter's deceleration)
+            "time_to_rest_ratio_median": float(np.median([leg["ratio_to_rest"] for leg in ok])) if ok else None,
+            "rest_after_outcome_s": ({"median": float(np.median([leg["rest_s"] - leg["time_s"] for leg in ok])),
+                                      "max": float(max(leg["rest_s"] - leg["time_s"] for leg in ok))} if ok else None),
             "time_share": {k: float(sum(leg[k] for leg in ok) / max(1e-9, sum(leg["time_s"] for leg in ok)))
                            for k in ("driving_s", "turning_in_place_s", "standing_s")},
             "move_base_cpu_fraction": cpu / wall_total, "move_base_cpu_s_per_sim_s": cpu / sim_total,
