@@ -98,6 +98,20 @@ def time_to_rest(track, t0, v=0.01, w=0.01):
     return float(track[min(last + 1, len(track) - 1), 0] - t0)
 
 
+def leg_phases(track, goal, start_m=0.5, end_m=0.8):
+    """Simulated seconds a leg's track (t, x, y, yaw, v, w) took for its first ``start_m`` [m]
+    (until the robot was that far from where it started) and for its end (from the first time it
+    came within ``end_m`` [m] of the goal to the last row). In a straight line from rest, at
+    max_vel_x and acc_lim_x 0.5 m/s^2: 1.5 s and 2.1 s."""
+    track = np.asarray(track)
+    t = track[:, 0]
+    away = np.nonzero(np.hypot(track[:, 1] - track[0, 1], track[:, 2] - track[0, 2]) > start_m)[0]
+    near = np.nonzero(np.hypot(track[:, 1] - goal[0], track[:, 2] - goal[1]) < end_m)[0]
+    start = t[away[0]] - t[0] if len(away) else t[-1] - t[0]
+    end = t[-1] - t[near[0]] if len(near) else 0.0
+    return {"start_s": float(start), "end_s": float(end)}
+
+
 def plan_length(make_plan, start, goal):
     from geometry_msgs.msg import PoseStamped
 
@@ -212,7 +226,7 @@ def main():
                 "plan_length_m": ideal, "driven_m": driven, "ratio": took / (ideal / MAX_VEL_X),
                 "turns_s": turns, "ratio_with_turns": took / (ideal / MAX_VEL_X + turns),
                 "rest_s": rest, "ratio_to_rest": rest / (ideal / MAX_VEL_X),
-                **time_breakdown(track),
+                **time_breakdown(track), **leg_phases(track, goal),
                 "collisions": session.collisions - collisions_before, "track": track[::5].round(3).tolist(),
             })
             print(f"{len(legs):3d}: {state:9s} {took:6.1f} s plan {ideal:5.2f} m ratio {legs[-1]['ratio']:4.2f} "
@@ -237,6 +251,9 @@ def main():
             "time_to_rest_ratio_median": float(np.median([leg["ratio_to_rest"] for leg in ok])) if ok else None,
             "rest_after_outcome_s": ({"median": float(np.median([leg["rest_s"] - leg["time_s"] for leg in ok])),
                                       "max": float(max(leg["rest_s"] - leg["time_s"] for leg in ok))} if ok else None),
+            # the first 0.5 m and the last 0.8 m of a leg (1.5 s and 2.1 s in a straight line)
+            "phases_median_s": {k: float(np.median([leg[k] for leg in ok])) if ok else None
+                                for k in ("start_s", "end_s")},
             "time_share": {k: float(sum(leg[k] for leg in ok) / max(1e-9, sum(leg["time_s"] for leg in ok)))
                            for k in ("driving_s", "turning_in_place_s", "standing_s")},
             "move_base_cpu_fraction": cpu / wall_total, "move_base_cpu_s_per_sim_s": cpu / sim_total,
