@@ -21,6 +21,7 @@ from move_base.trajectory_planner import (
     TrajectoryPlanner,
     adjust_plan_resolution,
     footprint_cost,
+    poses_are_free,
 )
 
 # The seed's files (turtlebot_control/config): footprint padded by footprint_padding, and
@@ -196,6 +197,20 @@ def test_footprint_cost_agrees_with_layers_footprint_cost():
         assert (got < 0) == (ref < 0), (x, y, th)
         if ref >= 0:
             assert got == ref
+
+
+def test_poses_are_free_is_footprint_cost_at_every_pose():
+    rng = np.random.default_rng(5)
+    cm = Costmap2D(60, 60, 0.05)
+    cm.costs[:] = rng.choice([0, 50, 253, 254, 255], size=cm.costs.shape, p=[0.98, 0.01, 0.004, 0.003, 0.003])
+    legal = illegal = 0
+    for _ in range(200):
+        poses = np.column_stack([rng.uniform(0.0, 3.0, 4), rng.uniform(0.0, 3.0, 4), rng.uniform(-math.pi, math.pi, 4)])
+        expected = all(footprint_cost(cm, *pose, FOOTPRINT) >= 0.0 for pose in poses)
+        assert poses_are_free(cm, poses, FOOTPRINT) == expected, poses
+        legal, illegal = legal + expected, illegal + (not expected)
+    assert legal > 10 and illegal > 10  # both outcomes were tried
+    assert poses_are_free(cm, np.empty((0, 3)), FOOTPRINT)
 
 
 def _reference_bfs(costs, seeds, within):

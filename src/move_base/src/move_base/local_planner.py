@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from move_base.trajectory_planner import TrajectoryPlanner, footprint_cost
+from move_base.trajectory_planner import TrajectoryPlanner, poses_are_free
 
 log = logging.getLogger(__name__)
 
@@ -210,7 +210,8 @@ class LocalPlanner:
         diff = _angle_diff(yaw, goal_th)
         diff += math.copysign(beyond, diff)
         steps = max(1, math.ceil(abs(diff) / 0.05))
-        return self._path_is_free(costmap, ((x, y, yaw + diff * i / steps) for i in range(steps + 1)))
+        yaws = yaw + diff * np.arange(steps + 1) / steps
+        return self._path_is_free(costmap, np.column_stack([np.full_like(yaws, x), np.full_like(yaws, y), yaws]))
 
     def _ramp_from(self, measured, index, acc):
         """The velocity an acceleration-limited step starts from: the last command's component
@@ -298,7 +299,7 @@ class LocalPlanner:
 
     def _path_is_free(self, costmap, points):
         """Whether the footprint stays clear of lethal cells at every pose (x, y, yaw) of ``points``."""
-        return all(footprint_cost(costmap, px, py, pth, self.planner.footprint) >= 0.0 for px, py, pth in points)
+        return poses_are_free(costmap, points, self.planner.footprint)
 
     def _stopped_moving(self, vx, vy):
         """Translation within trans_stopped_velocity (the rotation may go on)."""

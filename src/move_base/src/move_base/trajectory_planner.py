@@ -537,6 +537,24 @@ def _rollout_nb(x, y, yaw, vx, vy, vth, samples, dts, t_max, acc_x, acc_y, acc_t
     return pts
 
 
+@numba.njit(cache=True)
+def _poses_free_nb(costs, ox, oy, res, poses, fp):
+    """Whether :func:`_footprint_cost_nb` is legal (>= 0) at every pose (x, y, yaw) of ``poses``;
+    stops at the first that is not."""
+    for i in range(poses.shape[0]):
+        if _footprint_cost_nb(costs, ox, oy, res, poses[i, 0], poses[i, 1], poses[i, 2], fp) < 0.0:
+            return False
+    return True
+
+
+def poses_are_free(costmap, poses, footprint):
+    """Whether the footprint is legal for :func:`footprint_cost` (no lethal or unknown cell on its
+    outline, on the grid) at every pose (x [m], y [m], yaw [rad]) of ``poses`` (K, 3)."""
+    return bool(_poses_free_nb(costmap.costs, costmap.origin_x, costmap.origin_y, costmap.resolution,
+                               np.asarray(poses, dtype=float).reshape(-1, 3),
+                               np.asarray(footprint, dtype=float).reshape(-1, 2)))
+
+
 def footprint_cost(costmap, x, y, yaw, footprint):
     """Cost of the robot's footprint outline at (x [m], y [m], yaw [rad]) on ``costmap``, as
     base_local_planner's CostmapModel::footprintCost: -1.0 when the outline crosses a LETHAL or
