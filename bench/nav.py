@@ -126,12 +126,12 @@ def plan_length(make_plan, start, goal):
     if not plan.poses:
         return None
     xy = np.array([[p.pose.position.x, p.pose.position.y] for p in plan.poses])
-    length = float(np.sum(np.hypot(*np.diff(xy, axis=0).T)))
+    along = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
+    length = float(along[-1])
 
     def heading(a, b):  # direction [rad] from a to b
         return math.atan2(b[1] - a[1], b[0] - a[0])
 
-    along = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
     first = min(int(np.searchsorted(along, 0.3)), len(xy) - 1)  # 0.3 m of plan at each end
     last = max(int(np.searchsorted(along, length - 0.3)) - 1, 0)
     turns = turn_time(heading(xy[0], xy[first]) - start[2]) + turn_time(goal[2] - heading(xy[last], xy[-1]))
@@ -235,6 +235,10 @@ def main():
         sim_total, wall_total = session.sim_now() - sim0, time.monotonic() - wall0
 
         ok = [leg for leg in legs if leg["state"] == "SUCCEEDED"]
+
+        def median(key):  # over the goals reached
+            return float(np.median([leg[key] for leg in ok])) if ok else None
+
         ratios = np.array([leg["ratio"] for leg in ok])
         result = {
             "pairs": len(legs), "succeeded": len(ok), "success_rate": len(ok) / max(1, len(legs)),
@@ -245,15 +249,14 @@ def main():
             # the same against plan length / max_vel_x plus the least time for the turn from the robot's
             # heading onto the plan and from the plan's last heading to the goal yaw (max_rotational_vel,
             # velocity_filter's angular acceleration): what the random goal yaws cost at best
-            "time_ratio_with_turns_median": float(np.median([leg["ratio_with_turns"] for leg in ok])) if ok else None,
+            "time_ratio_with_turns_median": median("ratio_with_turns"),
             # the same to the moment the base is at rest (the goal ends while it may still brake or
             # finish its turn under velocity_filter's deceleration)
-            "time_to_rest_ratio_median": float(np.median([leg["ratio_to_rest"] for leg in ok])) if ok else None,
+            "time_to_rest_ratio_median": median("ratio_to_rest"),
             "rest_after_outcome_s": ({"median": float(np.median([leg["rest_s"] - leg["time_s"] for leg in ok])),
                                       "max": float(max(leg["rest_s"] - leg["time_s"] for leg in ok))} if ok else None),
             # the first 0.5 m and the last 0.8 m of a leg (1.5 s and 2.1 s in a straight line)
-            "phases_median_s": {k: float(np.median([leg[k] for leg in ok])) if ok else None
-                                for k in ("start_s", "end_s")},
+            "phases_median_s": {k: median(k) for k in ("start_s", "end_s")},
             "time_share": {k: float(sum(leg[k] for leg in ok) / max(1e-9, sum(leg["time_s"] for leg in ok)))
                            for k in ("driving_s", "turning_in_place_s", "standing_s")},
             "move_base_cpu_fraction": cpu / wall_total, "move_base_cpu_s_per_sim_s": cpu / sim_total,

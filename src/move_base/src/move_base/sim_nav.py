@@ -5,6 +5,7 @@ Runs inside a rospy node that the caller initialised, against a master where
 simulator's ground truth stamps, so the judgement does not depend on this process's clock.
 """
 
+import bisect
 import math
 import threading
 import time
@@ -73,8 +74,11 @@ class NavSession:
         return last[0] if last else 0.0
 
     def track(self, since=0.0):
+        """Ground-truth rows (t, x, y, yaw, v, w) stamped at or after ``since`` [s] (the stamps
+        grow: the rows are found by bisection, not by a scan of the whole history)."""
         with self.lock:
-            return np.array([row for row in self.truth if row[0] >= since]).reshape(-1, 6)
+            first = bisect.bisect_left(self.truth, since, key=lambda row: row[0])
+            return np.array(self.truth[first:]).reshape(-1, 6)
 
     def is_active(self):
         """Whether move_base has accepted the current goal and works on it (ACTIVE)."""
