@@ -9,7 +9,7 @@ import pytest
 import yaml
 from move_base.costmap_2d import LETHAL_OBSTACLE, Costmap2D
 from move_base.footprint import pad_footprint, parse_footprint, transform_footprint
-from move_base.local_planner import NO_VALID_TRAJECTORY, LocalPlanner, clip_plan, prune_count
+from move_base.local_planner import NO_VALID_TRAJECTORY, LocalPlanner, clip_plan, goal_turn_time, prune_count
 from move_base.trajectory_planner import PlannerParams
 from scipy import ndimage
 
@@ -414,3 +414,84 @@ def test_florence_approach_is_faster_and_ends_within_the_tolerances():
         steps[name] = len(poses)
     # measured: 8.4 s with ROS's approach, 7.4 s with the final approach and the turn while braking
     assert steps["florence"] * lp.params.sim_period <= steps["ros"] * lp.params.sim_period - 0.6
+
+
+# --- Florence: turning to the goal yaw before the xy tolerance -------------------------------------
+
+EARLY = {**FLORENCE, "turn_before_tolerance": True}
+
+
+def test_goal_turn_time_in_place_matches_the_braking_profile():
+    """At rest on the goal position, a quarter turn with acc_lim_th 1 rad/s^2 and the braking
+    profile sqrt(2 a |error|): speed up until w = sqrt(2 (pi/2 - w^2 / 2)), i.e. for sqrt(pi/2) s,
+    then slow down along the profile until 0.3 rad remain, at w = sqrt(0.6)."""
+    p = planner(**EARLY).params
+    t, end = goal_turn_time(p, (5.0, 5.0, 0.0), 0.0, 0.0, (5.0, 5.0, math.pi / 2), 0.0, step=0.001)
+    assert t == pytest.approx(2 * math.sqrt(math.pi / 2) - math.sqrt(0.6), abs=0.01)
+    assert end == pytest.approx(0.0)
+    # already within both tolerances
+    assert goal_turn_time(p, (5.1, 5.0, 0.2), 0.0, 0.0, (5.0, 5.0, 0.0), 0.0) == (0.0, pytest.approx(0.1))
+
+
+def test_goal_turn_time_straight_in_and_the_stop_after_it():
+    """Heading for the goal yaw already: reached on entering the tolerance; the stop lies the
+    braking distance v^2 / (2 acc_lim_x) beyond the point where the braking starts."""
+    p = planner(**EARLY).params
+    t, end = goal_turn_time(p, (4.0, 5.0, 0.0), 0.5, 0.0, (5.0, 5.0, 0.0), 10.0, step=0.01)
+    assert t == pytest.approx((1.0 - 0.25) / 0.5, abs=0.02)
+    assert end == pytest.approx(0.25 - 0.25, abs=0.02)  # braking 0.25 m from the tolerance's edge
+    t, end = goal_turn_time(p, (4.0, 5.0, 0.0), 0.5, 0.0, (5.0, 5.0, 0.0), 0.0, step=0.01)
+    assert math.isinf(t) and end == pytest.approx(0.75, abs=0.02)  # braking at once stops short
+
+
+def test_turn_before_tolerance_starts_when_it_ends_inside_and_sooner():
+    cm = Costmap2D(100, 100, 0.1)
+    plan = line_plan(2.0, 5.0, 5.0, 5.0, yaw_end=math.pi)
+    lp = planner(**EARLY)
+    lp.set_plan(plan)
+    # 0.42 m to go at 0.5 m/s: braking now stops 0.17 m from the goal, and the half turn starts
+    # 0.34 s sooner than after driving on into the tolerance
+    ok, cmd, reason = lp.compute_velocity(cm, (4.58, 5.0, 0.0), (0.5, 0.0, 0.0), plan)
+    assert ok and reason == "braking and turning to the goal yaw"
+    assert cmd[0] == pytest.approx(0.4) and cmd[2] > 0.0
+    # off (Florence's final approach only): drives on
+    late = planner(**FLORENCE)
+    late.set_plan(plan)
+    assert late.compute_velocity(cm, (4.58, 5.0, 0.0), (0.5, 0.0, 0.0), plan)[2] == "final approach"
+
+
+@pytest.mark.parametrize(("pose", "goal_yaw"), [
+    ((4.45, 5.0, 0.0), math.pi),  # 0.55 m to go: braking now stops 0.3 m short, outside the tolerance
+    ((4.58, 5.0, 0.0), 0.1),  # the goal yaw is already within yaw_goal_tolerance
+    ((4.58, 5.0, 0.0), 0.32),  # 0.02 rad to turn: driving on into the tolerance is sooner than braking
+])
+def test_turn_before_tolerance_drives_on(pose, goal_yaw):
+    cm = Costmap2D(100, 100, 0.1)
+    plan = line_plan(2.0, 5.0, 5.0, 5.0, yaw_end=goal_yaw)
+    lp = planner(**EARLY)
+    lp.set_plan(plan)
+    ok, cmd, reason = lp.compute_velocity(cm, pose, (0.5, 0.0, 0.0), plan)
+    assert ok and reason == "final approach" and cmd[0] == pytest.approx(0.5)
+
+
+def test_turn_before_tolerance_is_faster_and_ends_within_the_tolerances():
+    res = 0.1
+    lethal = np.zeros((100, 100), bool)
+    lethal[40, :] = True
+    lethal[60, :] = True
+    cm = Costmap2D(100, 100, res)
+    cm.costs[:] = inflated(lethal, res)
+    goal_yaw = 3.0
+    plan = line_plan(2.0, 5.0, 5.0, 5.0, yaw_end=goal_yaw)
+    seconds = {}
+    for name, over in (("late", FLORENCE), ("early", EARLY)):
+        lp = planner(**over)
+        poses = _drive(lp, cm, (2.0, 5.0, 0.0), plan, seconds=30.0, acc=(1.0, 1.0, 1.0))
+        assert lp.is_goal_reached(), name
+        x, y, yaw = poses[-1]
+        assert math.hypot(x - 5.0, y - 5.0) <= 0.25
+        assert abs(math.atan2(math.sin(yaw - goal_yaw), math.cos(yaw - goal_yaw))) <= 0.3
+        assert np.all(poses[:, 1] - CIRCUMSCRIBED > 4.1) and np.all(poses[:, 1] + CIRCUMSCRIBED < 6.0)
+        seconds[name] = (len(poses) - 1) * lp.params.sim_period
+    print(seconds)
+    assert seconds["early"] <= seconds["late"] - 0.2

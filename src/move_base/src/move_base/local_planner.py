@@ -24,6 +24,8 @@ NO_VALID_TRAJECTORY = "no valid trajectory (all samples collide)"
 # [m] within this of the goal position a turn to the goal yaw that collides is a failure; farther
 # (at the edge of xy_goal_tolerance) the robot drives on toward the goal position first
 _AT_GOAL = 0.05
+# [m] turn_before_tolerance starts only when the simulated stop is this far inside xy_goal_tolerance
+_EARLY_MARGIN = 0.05
 
 
 def _sign(x):
@@ -35,6 +37,49 @@ def _angle_diff(a, b):
     """Signed angle [rad] from ``a`` to ``b`` in [-pi, pi] (angles::shortest_angular_distance)."""
     d = b - a
     return math.atan2(math.sin(d), math.cos(d))
+
+
+def goal_turn_time(params, pose, v, w, goal, hold, step=0.05, horizon=10.0):
+    """Simulate driving straight on at ``v`` [m/s] for ``hold`` [s], then braking at acc_lim_x
+    while turning toward the goal yaw as the local planner does (the turn rate heads for
+    min(max_vel_theta, sqrt(2 acc_lim_theta |error|)) at acc_lim_theta), from ``pose`` (x, y, yaw)
+    and turn rate ``w`` [rad/s], in steps of ``step`` [s].
+
+    Returns (time [s] until the robot has been within xy_goal_tolerance of ``goal`` (x, y, yaw)
+    and is within yaw_goal_tolerance of its yaw, inf beyond ``horizon``; distance [m] from the goal
+    where the translation stops).
+    """
+    p = params
+    x, y, yaw = pose
+    gx, gy, gth = goal
+    latched = False
+    t = 0.0
+    end = None
+    while t < horizon:
+        if not latched and math.hypot(gx - x, gy - y) <= p.xy_goal_tolerance:
+            latched = True
+        err = _angle_diff(yaw, gth)
+        if latched and abs(err) <= p.yaw_goal_tolerance:
+            break
+        if t >= hold:
+            v = max(0.0, v - p.acc_lim_x * step)
+            want = math.copysign(min(p.max_vel_theta, math.sqrt(2.0 * p.acc_lim_theta * abs(err))), err)
+            w = min(max(want, w - p.acc_lim_theta * step), w + p.acc_lim_theta * step)
+            if v == 0.0 and end is None:
+                end = math.hypot(gx - x, gy - y)
+        else:
+            w = 0.0
+        x += v * math.cos(yaw) * step
+        y += v * math.sin(yaw) * step
+        yaw += w * step
+        t += step
+    else:
+        t = math.inf
+    if end is None:  # reached before the translation stopped: where braking from here ends
+        x += v * v / (2.0 * p.acc_lim_x) * math.cos(yaw)
+        y += v * v / (2.0 * p.acc_lim_x) * math.sin(yaw)
+        end = math.hypot(gx - x, gy - y)
+    return t, end
 
 
 def clip_plan(costmap, robot_xy, plan):
@@ -86,6 +131,7 @@ class LocalPlanner:
         self.local_plan = np.empty((0, 3))
         self._xy_tolerance_latch = False
         self._rotating_to_goal = False
+        self._turning_early = False  # turn_before_tolerance: braking and turning outside the tolerance
         self._reached_goal = False
         self._goal = None  # the last pose of the plan set last
         self._last_cmd = _ZERO  # the command of the last cycle
@@ -111,6 +157,7 @@ class LocalPlanner:
         if not same_goal:
             self._xy_tolerance_latch = False
             self._rotating_to_goal = False
+            self._turning_early = False
         return True
 
     def is_goal_reached(self):
@@ -155,6 +202,7 @@ class LocalPlanner:
 
         goal_x, goal_y, goal_th = window[-1]
         if self._xy_tolerance_latch or math.hypot(goal_x - x, goal_y - y) <= p.xy_goal_tolerance:
+            self._turning_early = False
             if p.latch_xy_goal_tolerance:
                 self._xy_tolerance_latch = True
             angle = _angle_diff(yaw, goal_th)
@@ -190,6 +238,10 @@ class LocalPlanner:
                 return True, cmd, "rotating to the goal yaw"
 
         else:
+            if holds_goal and p.turn_before_tolerance and p.rotate_while_braking:
+                cmd = self._turn_before_tolerance(costmap, x, y, yaw, vx, vy, vth, window[-1])
+                if cmd is not None:
+                    return True, cmd, "braking and turning to the goal yaw"
             if holds_goal and p.final_approach_dist > 0.0:
                 cmd = self._final_approach(costmap, x, y, yaw, vx, vth, window)
                 if cmd is not None:
@@ -281,6 +333,34 @@ class LocalPlanner:
         if not self._turn_is_free(costmap, sx, sy, syaw, goal_th, overshoot):
             return None
         return (cvx, cvy, cvth)
+
+    def _turn_before_tolerance(self, costmap, x, y, yaw, vx, vy, vth, goal):
+        """``turn_before_tolerance``: the :meth:`_brake_and_turn` command outside xy_goal_tolerance,
+        or None to drive on. The robot starts braking and turning when :func:`goal_turn_time` says
+        that doing so now ends at rest at least ``_EARLY_MARGIN`` inside the tolerance and reaches
+        both tolerances sooner than any later start (after driving on straight for whole control
+        periods up to the tolerance). Once started it keeps on while the simulation still ends
+        inside the tolerance and the braking arc is free."""
+        p = self.params
+        d = math.hypot(goal[0] - x, goal[1] - y)
+        speed = max(abs(self._ramp_from(vx, 0, p.acc_lim_x)), 0.0)
+        if (abs(_angle_diff(yaw, goal[2])) <= p.yaw_goal_tolerance
+                or d > p.xy_goal_tolerance + speed * speed / (2.0 * p.acc_lim_x)):
+            self._turning_early = False
+            return None
+        now, end = goal_turn_time(p, (x, y, yaw), speed, vth, goal, 0.0)
+        if end > p.xy_goal_tolerance - (0.0 if self._turning_early else _EARLY_MARGIN):
+            self._turning_early = False
+            return None
+        if not self._turning_early:
+            dt = p.sim_period
+            holds = dt * np.arange(1, max(1, math.ceil((d - p.xy_goal_tolerance) / max(speed, 1e-3) / dt)) + 1)
+            later = min(goal_turn_time(p, (x, y, yaw), speed, vth, goal, h)[0] for h in holds)
+            if not now < later:
+                return None
+        cmd = self._brake_and_turn(costmap, x, y, yaw, vx, vy, vth, goal[2])
+        self._turning_early = cmd is not None
+        return cmd
 
     def _braking_path(self, x, y, yaw, v, w, hold):
         """Poses (K, 3) of driving at (v [m/s], w [rad/s]) for ``hold`` [s], then braking the

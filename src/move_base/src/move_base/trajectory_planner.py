@@ -88,6 +88,9 @@ class PlannerParams:
             goal distance at the end of sim_time slows the robot to about d / sim_time.
         rotate_while_braking (bool, false): once within xy_goal_tolerance, start turning to the goal
             yaw while braking (ROS stops first, then turns on the spot).
+        turn_before_tolerance (bool, false): with rotate_while_braking, start braking and turning to
+            the goal yaw before the robot is within xy_goal_tolerance, when a simulation of the
+            manoeuvre ends well inside the tolerance and reaches the goal sooner than driving on.
     """
 
     acc_lim_x: float = 2.5
@@ -127,6 +130,7 @@ class PlannerParams:
     controller_frequency: float = 20.0
     final_approach_dist: float = 0.0
     rotate_while_braking: bool = False
+    turn_before_tolerance: bool = False
 
     def __post_init__(self):
         if self.angular_sim_granularity is None:
