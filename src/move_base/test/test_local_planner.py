@@ -9,7 +9,7 @@ import pytest
 import yaml
 from move_base.costmap_2d import LETHAL_OBSTACLE, Costmap2D
 from move_base.footprint import pad_footprint, parse_footprint, transform_footprint
-from move_base.local_planner import NO_VALID_TRAJECTORY, LocalPlanner, clip_plan, goal_turn_time, prune_count
+from move_base.local_planner import NO_VALID_TRAJECTORY, LocalPlanner, clip_plan, goal_turn_times, prune_count
 from move_base.trajectory_planner import PlannerParams
 from scipy import ndimage
 
@@ -426,22 +426,33 @@ def test_goal_turn_time_in_place_matches_the_braking_profile():
     profile sqrt(2 a |error|): speed up until w = sqrt(2 (pi/2 - w^2 / 2)), i.e. for sqrt(pi/2) s,
     then slow down along the profile until 0.3 rad remain, at w = sqrt(0.6)."""
     p = planner(**EARLY).params
-    t, end = goal_turn_time(p, (5.0, 5.0, 0.0), 0.0, 0.0, (5.0, 5.0, math.pi / 2), 0.0, step=0.001)
+    (t,), (end,), _, _ = goal_turn_times(p, (5.0, 5.0, 0.0), 0.0, 0.0, (5.0, 5.0, math.pi / 2), 0.0, 0.5,
+                                         step=0.001)
     assert t == pytest.approx(2 * math.sqrt(math.pi / 2) - math.sqrt(0.6), abs=0.01)
     assert end == pytest.approx(0.0)
     # already within both tolerances
-    assert goal_turn_time(p, (5.1, 5.0, 0.2), 0.0, 0.0, (5.0, 5.0, 0.0), 0.0) == (0.0, pytest.approx(0.1))
+    times, ends, poses, stops = goal_turn_times(p, (5.1, 5.0, 0.2), 0.0, 0.0, (5.0, 5.0, 0.0), 0.0, 0.5)
+    assert times[0] == 0.0 and ends[0] == pytest.approx(0.1) and len(poses) == 0 and stops[0] == 0
 
 
 def test_goal_turn_time_straight_in_and_the_stop_after_it():
     """Heading for the goal yaw already: reached on entering the tolerance; the stop lies the
     braking distance v^2 / (2 acc_lim_x) beyond the point where the braking starts."""
     p = planner(**EARLY).params
-    t, end = goal_turn_time(p, (4.0, 5.0, 0.0), 0.5, 0.0, (5.0, 5.0, 0.0), 10.0, step=0.01)
-    assert t == pytest.approx((1.0 - 0.25) / 0.5, abs=0.02)
-    assert end == pytest.approx(0.25 - 0.25, abs=0.02)  # braking 0.25 m from the tolerance's edge
-    t, end = goal_turn_time(p, (4.0, 5.0, 0.0), 0.5, 0.0, (5.0, 5.0, 0.0), 0.0, step=0.01)
-    assert math.isinf(t) and end == pytest.approx(0.75, abs=0.02)  # braking at once stops short
+    # options: drive on for 10 s or brake at once, at 0.5 and at 0.15 m/s^2
+    times, ends, poses, stops = goal_turn_times(p, (4.0, 5.0, 0.0), 0.5, 0.0, (5.0, 5.0, 0.0),
+                                                [10.0, 0.0, 0.0], [0.5, 0.5, 0.15], step=0.01)
+    assert times[0] == pytest.approx((1.0 - 0.25) / 0.5, abs=0.02)
+    assert ends[0] == pytest.approx(0.25 - 0.25, abs=0.02)  # braking 0.25 m from the tolerance's edge
+    assert math.isinf(times[1]) and ends[1] == pytest.approx(0.75, abs=0.02)  # braking at once stops short
+    # gently: within the tolerance when 0.5 t - 0.075 t^2 = 0.75; it stops 0.5^2 / 0.3 m on
+    assert times[2] == pytest.approx((0.5 - math.sqrt(0.25 - 0.225)) / 0.15, abs=0.03)
+    assert ends[2] == pytest.approx(1.0 - 0.25 / 0.3, abs=0.02)
+    # the poses run along the x axis until each option stopped or reached the goal
+    assert poses.shape[1:] == (3, 3) and len(poses) >= stops.max()
+    assert stops[0] == pytest.approx(150, abs=1) and stops[1] == pytest.approx(100, abs=1)
+    assert poses[stops[1] - 1, 1, 0] == pytest.approx(4.25, abs=0.01)
+    assert all(np.all(poses[:k, i, 1] == 5.0) and np.all(np.isnan(poses[k:, i])) for i, k in enumerate(stops))
 
 
 def test_turn_before_tolerance_starts_when_it_ends_inside_and_sooner():
@@ -454,6 +465,13 @@ def test_turn_before_tolerance_starts_when_it_ends_inside_and_sooner():
     ok, cmd, reason = lp.compute_velocity(cm, (4.58, 5.0, 0.0), (0.5, 0.0, 0.0), plan)
     assert ok and reason == "braking and turning to the goal yaw"
     assert cmd[0] == pytest.approx(0.4) and cmd[2] > 0.0
+    # 0.5 m to go: braking at acc_lim_x would stop 0.26 m from the goal (simulated, the arc included),
+    # at 0.65 acc_lim_x 0.16 m; the gentler braking starts the turn a control period sooner
+    lp = planner(**EARLY)
+    lp.set_plan(plan)
+    ok, cmd, reason = lp.compute_velocity(cm, (4.5, 5.0, 0.0), (0.5, 0.0, 0.0), plan)
+    assert ok and reason == "braking and turning to the goal yaw"
+    assert 0.5 - 0.5 * 0.2 < cmd[0] < 0.5 and cmd[2] > 0.0
     # off (Florence's final approach only): drives on
     late = planner(**FLORENCE)
     late.set_plan(plan)
@@ -461,7 +479,7 @@ def test_turn_before_tolerance_starts_when_it_ends_inside_and_sooner():
 
 
 @pytest.mark.parametrize(("pose", "goal_yaw"), [
-    ((4.45, 5.0, 0.0), math.pi),  # 0.55 m to go: braking now stops 0.3 m short, outside the tolerance
+    ((4.2, 5.0, 0.0), math.pi),  # 0.8 m to go: even the gentlest braking stops 0.3 m short
     ((4.58, 5.0, 0.0), 0.1),  # the goal yaw is already within yaw_goal_tolerance
     ((4.58, 5.0, 0.0), 0.32),  # 0.02 rad to turn: driving on into the tolerance is sooner than braking
 ])

@@ -157,9 +157,12 @@ def test_person_stepping_into_the_corridor_is_avoided(nav):
 
 
 def test_cancel_mid_route_stops_the_robot(nav):
-    """A cancel stops move_base's commands at once; the base then comes to rest as fast as
-    velocity_filter lets it (1.0 m/s^2 and 1.0 rad/s^2, seed 3.6): within 0.5 s from the Create's
-    0.5 m/s, and a fast turn within its speed / 1.0 rad/s^2."""
+    """A cancel stops move_base's commands within a control cycle (0.2 s at the seed's 5 Hz); the
+    base then comes to rest as fast as velocity_filter lets it (1.0 m/s^2 and 1.0 rad/s^2, seed
+    3.6): within its speed at the cancel / 1.0 m/s^2 (rad/s^2) plus 0.25 s. That is 0.5 s at
+    0.25 m/s; the test cancels once the robot drives faster than 0.2 m/s. From the Create's 0.5 m/s
+    the braking alone takes 0.5 s; a fixed 0.5 s bound failed once (0.53 s) on a loaded machine,
+    where the cancel went out later in the run-up."""
     import rospy
     from geometry_msgs.msg import Twist
 
@@ -197,7 +200,7 @@ def test_cancel_mid_route_stops_the_robot(nav):
     turn_stop = (turning[-1, 0] - t_cancel) if len(turning) else 0.0
     print(f"cancel at v {at_cancel[4]:.2f} m/s, w {at_cancel[5]:.2f} rad/s: linear stop after {linear_stop:.2f} s, "
           f"turn stop after {turn_stop:.2f} s")
-    assert linear_stop <= 0.5, f"still driving {linear_stop:.2f} s after the cancel"
+    assert linear_stop <= at_cancel[4] / 1.0 + 0.25, f"still driving {linear_stop:.2f} s after the cancel"
     assert turn_stop <= abs(at_cancel[5]) / 1.0 + 0.25, f"still turning {turn_stop:.2f} s after the cancel"
 
 

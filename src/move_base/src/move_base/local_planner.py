@@ -13,6 +13,7 @@ frame; REP 103.
 import logging
 import math
 
+import numba
 import numpy as np
 
 from move_base.trajectory_planner import TrajectoryPlanner, poses_are_free
@@ -26,6 +27,9 @@ NO_VALID_TRAJECTORY = "no valid trajectory (all samples collide)"
 _AT_GOAL = 0.05
 # [m] turn_before_tolerance starts only when the simulated stop is this far inside xy_goal_tolerance
 _EARLY_MARGIN = 0.05
+# fractions of acc_lim_x that turn_before_tolerance may brake at: braking gently from farther out
+# starts the turn sooner and still stops inside the tolerance
+_EARLY_DECELS = (1.0, 0.8, 0.65, 0.5)
 
 
 def _sign(x):
@@ -39,47 +43,68 @@ def _angle_diff(a, b):
     return math.atan2(math.sin(d), math.cos(d))
 
 
-def goal_turn_time(params, pose, v, w, goal, hold, step=0.05, horizon=10.0):
-    """Simulate driving straight on at ``v`` [m/s] for ``hold`` [s], then braking at acc_lim_x
-    while turning toward the goal yaw as the local planner does (the turn rate heads for
-    min(max_vel_theta, sqrt(2 acc_lim_theta |error|)) at acc_lim_theta), from ``pose`` (x, y, yaw)
-    and turn rate ``w`` [rad/s], in steps of ``step`` [s].
+def goal_turn_times(params, pose, v, w, goal, hold, decel, step=0.05, horizon=10.0):
+    """Simulate options of the turn to the goal yaw near the goal: drive straight on at ``v``
+    [m/s] for ``hold`` [s], then brake at ``decel`` [m/s^2] while turning toward the goal yaw as
+    the local planner does (the turn rate heads for min(max_vel_theta, sqrt(2 acc_lim_theta
+    |error|)) at acc_lim_theta), from ``pose`` (x, y, yaw) and turn rate ``w`` [rad/s], in steps of
+    ``step`` [s]. ``hold`` and ``decel`` are arrays (or scalars) of the same shape, one option each.
 
-    Returns (time [s] until the robot has been within xy_goal_tolerance of ``goal`` (x, y, yaw)
-    and is within yaw_goal_tolerance of its yaw, inf beyond ``horizon``; distance [m] from the goal
-    where the translation stops).
+    Returns (times, ends, poses, stops): per option the time [s] until the robot has been within
+    xy_goal_tolerance of ``goal`` (x, y, yaw) and is within yaw_goal_tolerance of its yaw (inf
+    beyond ``horizon`` or when it stops outside the tolerance) and the distance [m] from the goal
+    where the translation stops; the poses (K, n, 3) of the steps and, per option, the number K_i
+    of them it drove through before its translation stopped (or it reached the goal): option i's
+    poses are ``poses[:K_i, i]``, the rest of its column is NaN.
     """
     p = params
-    x, y, yaw = pose
-    gx, gy, gth = goal
-    latched = False
-    t = 0.0
-    end = None
-    while t < horizon:
-        if not latched and math.hypot(gx - x, gy - y) <= p.xy_goal_tolerance:
-            latched = True
-        err = _angle_diff(yaw, gth)
-        if latched and abs(err) <= p.yaw_goal_tolerance:
-            break
-        if t >= hold:
-            v = max(0.0, v - p.acc_lim_x * step)
-            want = math.copysign(min(p.max_vel_theta, math.sqrt(2.0 * p.acc_lim_theta * abs(err))), err)
-            w = min(max(want, w - p.acc_lim_theta * step), w + p.acc_lim_theta * step)
-            if v == 0.0 and end is None:
-                end = math.hypot(gx - x, gy - y)
-        else:
-            w = 0.0
-        x += v * math.cos(yaw) * step
-        y += v * math.sin(yaw) * step
-        yaw += w * step
-        t += step
-    else:
-        t = math.inf
-    if end is None:  # reached before the translation stopped: where braking from here ends
-        x += v * v / (2.0 * p.acc_lim_x) * math.cos(yaw)
-        y += v * v / (2.0 * p.acc_lim_x) * math.sin(yaw)
-        end = math.hypot(gx - x, gy - y)
-    return t, end
+    hold, decel = (np.ascontiguousarray(a.ravel()) for a in np.broadcast_arrays(
+        np.asarray(hold, dtype=float), np.asarray(decel, dtype=float)))
+    times, ends, poses, stops = _goal_turn_nb(
+        float(pose[0]), float(pose[1]), float(pose[2]), float(v), float(w), float(goal[0]), float(goal[1]),
+        float(goal[2]), hold, decel, float(step), round(horizon / step), float(p.xy_goal_tolerance),
+        float(p.yaw_goal_tolerance), float(p.max_vel_theta), float(p.acc_lim_theta))
+    return times, ends, poses[:stops.max(initial=0)], stops
+
+
+@numba.njit(cache=True)
+def _goal_turn_nb(x0, y0, yaw0, v0, w0, gx, gy, gth, hold, decel, step, nsteps, tol, yaw_tol, max_w, acc_w):
+    """:func:`goal_turn_times`' simulation, one option after the other."""
+    n = len(hold)
+    times = np.full(n, np.inf)
+    ends = np.full(n, np.nan)
+    stops = np.zeros(n, dtype=np.int64)
+    poses = np.full((nsteps + 1, n, 3), np.nan)
+    for i in range(n):
+        x, y, yaw, v, w = x0, y0, yaw0, v0, w0
+        latched = False
+        for k in range(nsteps + 1):
+            dist = math.hypot(gx - x, gy - y)
+            latched = latched or dist <= tol
+            err = math.atan2(math.sin(gth - yaw), math.cos(gth - yaw))
+            if latched and abs(err) <= yaw_tol:
+                times[i] = k * step
+                break
+            if k * step >= hold[i]:
+                v = max(0.0, v - decel[i] * step)
+                want = math.copysign(min(max_w, math.sqrt(2.0 * acc_w * abs(err))), err)
+                w = min(max(want, w - acc_w * step), w + acc_w * step)
+                if v == 0.0 and np.isnan(ends[i]):
+                    ends[i] = dist
+                    if not latched:  # at rest outside the tolerance: a turn on the spot never gets in
+                        break
+            else:
+                w = 0.0
+            if np.isnan(ends[i]):
+                poses[k, i, 0], poses[k, i, 1], poses[k, i, 2] = x, y, yaw
+                stops[i] = k + 1
+            x += v * math.cos(yaw) * step
+            y += v * math.sin(yaw) * step
+            yaw += w * step
+        if np.isnan(ends[i]):  # reached before the translation stopped: where braking from here ends
+            run = v * v / (2.0 * decel[i])
+            ends[i] = math.hypot(gx - x - run * math.cos(yaw), gy - y - run * math.sin(yaw))
+    return times, ends, poses, stops
 
 
 def clip_plan(costmap, robot_xy, plan):
@@ -335,32 +360,47 @@ class LocalPlanner:
         return (cvx, cvy, cvth)
 
     def _turn_before_tolerance(self, costmap, x, y, yaw, vx, vy, vth, goal):
-        """``turn_before_tolerance``: the :meth:`_brake_and_turn` command outside xy_goal_tolerance,
-        or None to drive on. The robot starts braking and turning when :func:`goal_turn_time` says
-        that doing so now ends at rest at least ``_EARLY_MARGIN`` inside the tolerance and reaches
-        both tolerances sooner than any later start (after driving on straight for whole control
-        periods up to the tolerance). Once started it keeps on while the simulation still ends
-        inside the tolerance and the braking arc is free."""
+        """``turn_before_tolerance``: a command that brakes and turns to the goal yaw outside
+        xy_goal_tolerance, or None to drive on. :func:`goal_turn_times` simulates braking now at
+        ``_EARLY_DECELS`` of acc_lim_x and after driving on straight for whole control periods up
+        to the tolerance. The robot starts when an option that starts now stops at least
+        ``_EARLY_MARGIN`` inside the tolerance and reaches both tolerances sooner than any later
+        one; then, each cycle, it takes the soonest option that still stops inside the tolerance
+        with a free path, and drives on when none does."""
         p = self.params
+        dt = p.sim_period
         d = math.hypot(goal[0] - x, goal[1] - y)
-        speed = max(abs(self._ramp_from(vx, 0, p.acc_lim_x)), 0.0)
-        if (abs(_angle_diff(yaw, goal[2])) <= p.yaw_goal_tolerance
-                or d > p.xy_goal_tolerance + speed * speed / (2.0 * p.acc_lim_x)):
+        speed = abs(self._ramp_from(vx, 0, p.acc_lim_x))
+        vth = self._ramp_from(vth, 2, p.acc_lim_theta)
+        decels = p.acc_lim_x * np.asarray(_EARLY_DECELS)
+        if (abs(vy) > 0.0 or abs(_angle_diff(yaw, goal[2])) <= p.yaw_goal_tolerance
+                or d > p.xy_goal_tolerance + speed * speed / (2.0 * decels.min())):
             self._turning_early = False
             return None
-        now, end = goal_turn_time(p, (x, y, yaw), speed, vth, goal, 0.0)
-        if end > p.xy_goal_tolerance - (0.0 if self._turning_early else _EARLY_MARGIN):
+        periods = max(1, math.ceil((d - p.xy_goal_tolerance) / max(speed, 1e-3) / dt))
+        holds = (dt * np.arange(periods + 1))[:, None] * np.ones_like(decels)
+        times, ends, poses, stops = goal_turn_times(p, (x, y, yaw), speed, vth, goal, holds,
+                                                    np.broadcast_to(decels, holds.shape))
+        inside = ends <= p.xy_goal_tolerance - (0.0 if self._turning_early else _EARLY_MARGIN)
+        now = np.nonzero(inside[:len(decels)])[0]
+        if len(now) == 0 or not (self._turning_early or times[now].min() < times[len(decels):][
+                ends[len(decels):] <= p.xy_goal_tolerance - _EARLY_MARGIN].min(initial=math.inf)):
             self._turning_early = False
             return None
+        best = int(now[np.argmin(times[now])])
+        path = poses[:max(1, stops[best]), best]
+        sx, sy, syaw = path[-1]
+        cvx = _sign(vx) * max(0.0, speed - decels[best] * dt)
+        err = _angle_diff(yaw, goal[2])
+        want = math.copysign(min(p.max_vel_theta, math.sqrt(2.0 * p.acc_lim_theta * abs(err))), err)
+        cvth = min(max(want, vth - p.acc_lim_theta * dt), vth + p.acc_lim_theta * dt)
+        overshoot = max(0.0, p.max_vel_theta ** 2 / (2.0 * p.acc_lim_theta) - p.yaw_goal_tolerance)
+        self._turning_early = (self._path_is_free(costmap, path)
+                               and self._turn_is_free(costmap, sx, sy, syaw, goal[2], overshoot))
         if not self._turning_early:
-            dt = p.sim_period
-            holds = dt * np.arange(1, max(1, math.ceil((d - p.xy_goal_tolerance) / max(speed, 1e-3) / dt)) + 1)
-            later = min(goal_turn_time(p, (x, y, yaw), speed, vth, goal, h)[0] for h in holds)
-            if not now < later:
-                return None
-        cmd = self._brake_and_turn(costmap, x, y, yaw, vx, vy, vth, goal[2])
-        self._turning_early = cmd is not None
-        return cmd
+            return None
+        self.local_plan = path
+        return (cvx, 0.0, cvth)
 
     def _braking_path(self, x, y, yaw, v, w, hold):
         """Poses (K, 3) of driving at (v [m/s], w [rad/s]) for ``hold`` [s], then braking the
