@@ -160,6 +160,8 @@ class LocalPlanner:
         self._reached_goal = False
         self._goal = None  # the last pose of the plan set last
         self._last_cmd = _ZERO  # the command of the last cycle
+        if params.turn_before_tolerance:  # compile (or load) the kernel now, not near the first goal
+            goal_turn_times(params, (0.0, 0.0, 0.0), 0.0, 0.0, (0.0, 0.0, 0.0), 0.0, 1.0)
 
     def set_plan(self, poses):
         """New global plan (N, 3) [m, m, rad]; clears the goal-reached flag.
