@@ -392,28 +392,37 @@ def test_rotate_while_braking_brakes_straight_when_the_arc_would_collide():
     assert cmd == pytest.approx((0.3, 0.0, 0.0))
 
 
-def test_florence_approach_is_faster_and_ends_within_the_tolerances():
+def _corridor_approach_seconds(variants, goal_yaw, xy_slack):
+    """Drive a 3 m corridor leg (walls 2 m apart) to a goal at ``goal_yaw`` [rad] with each of
+    ``variants`` (name: parameter overrides); check that each ends within the goal tolerances (the
+    xy one plus ``xy_slack`` [m]) without leaving the corridor; return the seconds per name."""
     res = 0.1
     lethal = np.zeros((100, 100), bool)
     lethal[40, :] = True
     lethal[60, :] = True
     cm = Costmap2D(100, 100, res)
     cm.costs[:] = inflated(lethal, res)
-    goal_yaw = 1.2
     plan = line_plan(2.0, 5.0, 5.0, 5.0, yaw_end=goal_yaw)
-    steps = {}
-    for name, over in (("ros", {**FLORENCE, "final_approach_dist": 0.0, "rotate_while_braking": False}),
-                       ("florence", FLORENCE)):
+    seconds = {}
+    for name, over in variants.items():
         lp = planner(**over)
         poses = _drive(lp, cm, (2.0, 5.0, 0.0), plan, seconds=30.0, acc=(1.0, 1.0, 1.0))
         assert lp.is_goal_reached(), name
         x, y, yaw = poses[-1]
-        assert math.hypot(x - 5.0, y - 5.0) <= 0.25 + 0.05
+        assert math.hypot(x - 5.0, y - 5.0) <= 0.25 + xy_slack
         assert abs(math.atan2(math.sin(yaw - goal_yaw), math.cos(yaw - goal_yaw))) <= 0.3
         assert np.all(poses[:, 1] - CIRCUMSCRIBED > 4.1) and np.all(poses[:, 1] + CIRCUMSCRIBED < 6.0)
-        steps[name] = len(poses)
-    # measured: 8.4 s with ROS's approach, 7.4 s with the final approach and the turn while braking
-    assert steps["florence"] * lp.params.sim_period <= steps["ros"] * lp.params.sim_period - 0.6
+        seconds[name] = (len(poses) - 1) * lp.params.sim_period
+    print(seconds)
+    return seconds
+
+
+def test_florence_approach_is_faster_and_ends_within_the_tolerances():
+    seconds = _corridor_approach_seconds(
+        {"ros": {**FLORENCE, "final_approach_dist": 0.0, "rotate_while_braking": False}, "florence": FLORENCE},
+        goal_yaw=1.2, xy_slack=0.05)
+    # measured: 8.2 s with ROS's approach, 7.2 s with the final approach and the turn while braking
+    assert seconds["florence"] <= seconds["ros"] - 0.6
 
 
 # --- Florence: turning to the goal yaw before the xy tolerance -------------------------------------
@@ -493,23 +502,6 @@ def test_turn_before_tolerance_drives_on(pose, goal_yaw):
 
 
 def test_turn_before_tolerance_is_faster_and_ends_within_the_tolerances():
-    res = 0.1
-    lethal = np.zeros((100, 100), bool)
-    lethal[40, :] = True
-    lethal[60, :] = True
-    cm = Costmap2D(100, 100, res)
-    cm.costs[:] = inflated(lethal, res)
-    goal_yaw = 3.0
-    plan = line_plan(2.0, 5.0, 5.0, 5.0, yaw_end=goal_yaw)
-    seconds = {}
-    for name, over in (("late", FLORENCE), ("early", EARLY)):
-        lp = planner(**over)
-        poses = _drive(lp, cm, (2.0, 5.0, 0.0), plan, seconds=30.0, acc=(1.0, 1.0, 1.0))
-        assert lp.is_goal_reached(), name
-        x, y, yaw = poses[-1]
-        assert math.hypot(x - 5.0, y - 5.0) <= 0.25
-        assert abs(math.atan2(math.sin(yaw - goal_yaw), math.cos(yaw - goal_yaw))) <= 0.3
-        assert np.all(poses[:, 1] - CIRCUMSCRIBED > 4.1) and np.all(poses[:, 1] + CIRCUMSCRIBED < 6.0)
-        seconds[name] = (len(poses) - 1) * lp.params.sim_period
-    print(seconds)
+    seconds = _corridor_approach_seconds({"late": FLORENCE, "early": EARLY}, goal_yaw=3.0, xy_slack=0.0)
+    # measured: 8.6 s turning once within the tolerance, 8.2 s turning before it
     assert seconds["early"] <= seconds["late"] - 0.2
