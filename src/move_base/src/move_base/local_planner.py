@@ -367,8 +367,9 @@ class LocalPlanner:
         ``_EARLY_DECELS`` of acc_lim_x and after driving on straight for whole control periods up
         to the tolerance. The robot starts when an option that starts now stops at least
         ``_EARLY_MARGIN`` inside the tolerance and reaches both tolerances sooner than any later
-        one; then, each cycle, it takes the soonest option that still stops inside the tolerance
-        with a free path, and drives on when none does."""
+        one; then, each cycle, it takes the option that still stops inside the tolerance and, of
+        those within half a control period of the soonest, stops nearest the goal; it drives on when
+        that option's path or the turn at its end is not free."""
         p = self.params
         dt = p.sim_period
         d = math.hypot(goal[0] - x, goal[1] - y)
@@ -389,7 +390,9 @@ class LocalPlanner:
                 ends[len(decels):] <= p.xy_goal_tolerance - _EARLY_MARGIN].min(initial=math.inf)):
             self._turning_early = False
             return None
-        best = int(now[np.argmin(times[now])])
+        # of the options within half a control period of the soonest, the one that stops nearest the goal
+        near = now[times[now] <= times[now].min() + 0.5 * dt]
+        best = int(near[np.argmin(ends[near])])
         path = poses[:max(1, stops[best]), best]
         sx, sy, syaw = path[-1]
         cvx = _sign(vx) * max(0.0, speed - decels[best] * dt)
