@@ -469,11 +469,14 @@ def test_turn_before_tolerance_starts_when_it_ends_inside_and_sooner():
     plan = line_plan(2.0, 5.0, 5.0, 5.0, yaw_end=math.pi)
     lp = planner(**EARLY)
     lp.set_plan(plan)
-    # 0.42 m to go at 0.5 m/s: braking now stops 0.17 m from the goal, and the half turn starts
-    # 0.34 s sooner than after driving on into the tolerance
+    # 0.42 m to go at 0.5 m/s: braking now, at any of the rates, reaches the goal in 2.8 s, sooner
+    # than after driving on into the tolerance. Braking at acc_lim_x would stop 0.19 m from the goal
+    # (simulated, the arc included), at 0.65 acc_lim_x 0.09 m: the nearest stop of the equally
+    # soon options wins
     ok, cmd, reason = lp.compute_velocity(cm, (4.58, 5.0, 0.0), (0.5, 0.0, 0.0), plan)
     assert ok and reason == "braking and turning to the goal yaw"
-    assert cmd[0] == pytest.approx(0.4) and cmd[2] > 0.0
+    assert cmd == pytest.approx((0.5 - 0.65 * 0.5 * 0.2, 0.0, 1.0 * 0.2))
+    assert math.hypot(lp.local_plan[-1, 0] - 5.0, lp.local_plan[-1, 1] - 5.0) < 0.1
     # 0.5 m to go: braking at acc_lim_x would stop 0.26 m from the goal (simulated, the arc included),
     # at 0.65 acc_lim_x 0.16 m; the gentler braking starts the turn a control period sooner
     lp = planner(**EARLY)
