@@ -112,6 +112,24 @@ def leg_phases(track, goal, start_m=0.5, end_m=0.8):
     return {"start_s": float(start), "end_s": float(end)}
 
 
+def goal_error(track, goal):
+    """Ground-truth distance [m] and absolute yaw difference [rad] between the last row of a track
+    (t, x, y, yaw, v, w) and the goal (x, y, yaw); None for an empty track."""
+    if len(track) == 0:
+        return None, None
+    x, y, yaw = track[-1, 1:4]
+    return float(math.hypot(goal[0] - x, goal[1] - y)), float(abs(math.remainder(goal[2] - yaw, 2 * math.pi)))
+
+
+def error_spread(errors, tolerance):
+    """Median, p90, max and the number beyond ``tolerance`` of the errors that are not None."""
+    e = np.array([v for v in errors if v is not None], dtype=float)
+    if len(e) == 0:
+        return None
+    return {"median": float(np.median(e)), "p90": float(np.percentile(e, 90)), "max": float(e.max()),
+            "beyond_tolerance": int(np.sum(e > tolerance))}
+
+
 def plan_length(make_plan, start, goal):
     from geometry_msgs.msg import PoseStamped
 
@@ -220,12 +238,15 @@ def main():
             session.wait_still(sim_time=0.3)
             track = session.track(since=t0)
             rest = time_to_rest(track, t0)
+            rest_error = goal_error(track, goal)[0]
             track = track[track[:, 0] <= t0 + took]
+            end_error, end_yaw_error = goal_error(track, goal)
             legs.append({
                 "goal": [float(v) for v in goal], "state": state, "text": text, "time_s": took,
                 "plan_length_m": ideal, "driven_m": driven, "ratio": took / (ideal / MAX_VEL_X),
                 "turns_s": turns, "ratio_with_turns": took / (ideal / MAX_VEL_X + turns),
                 "rest_s": rest, "ratio_to_rest": rest / (ideal / MAX_VEL_X),
+                "end_error_m": end_error, "end_yaw_error_rad": end_yaw_error, "rest_error_m": rest_error,
                 **time_breakdown(track), **leg_phases(track, goal),
                 "collisions": session.collisions - collisions_before, "track": track[::5].round(3).tolist(),
             })
@@ -257,6 +278,11 @@ def main():
                                       "max": float(max(leg["rest_s"] - leg["time_s"] for leg in ok))} if ok else None),
             # the first 0.5 m and the last 0.8 m of a leg (1.5 s and 2.1 s in a straight line)
             "phases_median_s": {k: median(k) for k in ("start_s", "end_s")},
+            # ground truth against the goal at the result and once at rest (move_base judges by amcl's
+            # pose; xy_goal_tolerance 0.25 m, yaw_goal_tolerance 0.3 rad)
+            "goal_error": {k: error_spread([leg[k] for leg in ok], tol)
+                           for k, tol in (("end_error_m", 0.25), ("end_yaw_error_rad", 0.3),
+                                          ("rest_error_m", 0.25))},
             "time_share": {k: float(sum(leg[k] for leg in ok) / max(1e-9, sum(leg["time_s"] for leg in ok)))
                            for k in ("driving_s", "turning_in_place_s", "standing_s")},
             "move_base_cpu_fraction": cpu / wall_total, "move_base_cpu_s_per_sim_s": cpu / sim_total,
