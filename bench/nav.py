@@ -230,7 +230,7 @@ def main():
             if planned is None or planned[0] < 0.5:
                 continue  # not reachable from here (a closed-off corner) or no real leg
             ideal, turns = planned
-            collisions_before = session.collisions
+            collisions_before, poses_before = session.collisions, len(session.collision_poses)
             t0 = session.sim_now()
             state, text, took, driven = session.go(*goal, sim_timeout=args.leg_timeout)
             # move_base ends a goal once within its tolerances (TrajectoryPlannerROS); the base may
@@ -248,7 +248,9 @@ def main():
                 "rest_s": rest, "ratio_to_rest": rest / (ideal / MAX_VEL_X),
                 "end_error_m": end_error, "end_yaw_error_rad": end_yaw_error, "rest_error_m": rest_error,
                 **time_breakdown(track), **leg_phases(track, goal),
-                "collisions": session.collisions - collisions_before, "track": track[::5].round(3).tolist(),
+                "collisions": session.collisions - collisions_before,
+                "collision_poses": [list(p) for p in session.collision_poses[poses_before:]],
+                "track": track[::5].round(3).tolist(),
             })
             print(f"{len(legs):3d}: {state:9s} {took:6.1f} s plan {ideal:5.2f} m ratio {legs[-1]['ratio']:4.2f} "
                   f"(at rest {rest - took:+.1f} s) {text if state != 'SUCCEEDED' else ''}", flush=True)
