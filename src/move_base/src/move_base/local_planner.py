@@ -338,6 +338,15 @@ class LocalPlanner:
         self.local_plan = points
         return (v, 0.0, w)
 
+    def _turn_step(self, yaw, vth, goal_th):
+        """The turn rate [rad/s] one control period on from ``vth`` toward the braking speed
+        min(max_vel_theta, sqrt(2 acc_lim_theta |error|)) to the goal yaw ``goal_th`` [rad]."""
+        p = self.params
+        dt = p.sim_period
+        err = _angle_diff(yaw, goal_th)
+        want = math.copysign(min(p.max_vel_theta, math.sqrt(2.0 * p.acc_lim_theta * abs(err))), err)
+        return min(max(want, vth - p.acc_lim_theta * dt), vth + p.acc_lim_theta * dt)
+
     def _brake_and_turn(self, costmap, x, y, yaw, vx, vy, vth, goal_th):
         """``rotate_while_braking``: slow the translation by acc_lim_x over one control period while
         the rotation speeds up toward the goal yaw (as :meth:`_rotate_to_goal`, without the in-place
@@ -347,9 +356,7 @@ class LocalPlanner:
         vx, vth = self._ramp_from(vx, 0, p.acc_lim_x), self._ramp_from(vth, 2, p.acc_lim_theta)
         cvx = _sign(vx) * max(0.0, abs(vx) - p.acc_lim_x * dt)
         cvy = _sign(vy) * max(0.0, abs(vy) - p.acc_lim_y * dt)
-        ang_diff = _angle_diff(yaw, goal_th)
-        want = math.copysign(min(p.max_vel_theta, math.sqrt(2.0 * p.acc_lim_theta * abs(ang_diff))), ang_diff)
-        cvth = min(max(want, vth - p.acc_lim_theta * dt), vth + p.acc_lim_theta * dt)
+        cvth = self._turn_step(yaw, vth, goal_th)
         if abs(cvy) > 0.0:
             return None  # a holonomic base strafing: ROS's braking, then the turn
         points = self._braking_path(x, y, yaw, cvx, cvth, hold=0.0)
@@ -381,13 +388,14 @@ class LocalPlanner:
             self._turning_early = False
             return None
         periods = max(1, math.ceil((d - p.xy_goal_tolerance) / max(speed, 1e-3) / dt))
-        holds = (dt * np.arange(periods + 1))[:, None] * np.ones_like(decels)
-        times, ends, poses, stops = goal_turn_times(p, (x, y, yaw), speed, vth, goal, holds,
-                                                    np.broadcast_to(decels, holds.shape))
-        inside = ends <= p.xy_goal_tolerance - (0.0 if self._turning_early else _EARLY_MARGIN)
-        now = np.nonzero(inside[:len(decels)])[0]
-        if len(now) == 0 or not (self._turning_early or times[now].min() < times[len(decels):][
-                ends[len(decels):] <= p.xy_goal_tolerance - _EARLY_MARGIN].min(initial=math.inf)):
+        # options: every braking rate (columns) after 0, 1, ..., periods control periods (rows)
+        times, ends, poses, stops = goal_turn_times(p, (x, y, yaw), speed, vth, goal,
+                                                    dt * np.arange(periods + 1)[:, None], decels)
+        k = len(decels)  # the first row starts now
+        margin = 0.0 if self._turning_early else _EARLY_MARGIN
+        now = np.nonzero(ends[:k] <= p.xy_goal_tolerance - margin)[0]
+        later = times[k:][ends[k:] <= p.xy_goal_tolerance - _EARLY_MARGIN].min(initial=math.inf)
+        if len(now) == 0 or not (self._turning_early or times[now].min() < later):
             self._turning_early = False
             return None
         # of the options within half a control period of the soonest, the one that stops nearest the goal
@@ -396,9 +404,7 @@ class LocalPlanner:
         path = poses[:max(1, stops[best]), best]
         sx, sy, syaw = path[-1]
         cvx = _sign(vx) * max(0.0, speed - decels[best] * dt)
-        err = _angle_diff(yaw, goal[2])
-        want = math.copysign(min(p.max_vel_theta, math.sqrt(2.0 * p.acc_lim_theta * abs(err))), err)
-        cvth = min(max(want, vth - p.acc_lim_theta * dt), vth + p.acc_lim_theta * dt)
+        cvth = self._turn_step(yaw, vth, goal[2])
         overshoot = max(0.0, p.max_vel_theta ** 2 / (2.0 * p.acc_lim_theta) - p.yaw_goal_tolerance)
         self._turning_early = (self._path_is_free(costmap, path)
                                and self._turn_is_free(costmap, sx, sy, syaw, goal[2], overshoot))
