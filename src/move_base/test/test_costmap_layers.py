@@ -360,6 +360,47 @@ def test_rolling_window_copies_the_overlapping_static_map():
     assert int((lc.costmap.costs == LETHAL_OBSTACLE).sum()) == 1
 
 
+def test_rolling_window_places_a_static_map_of_another_frame_by_its_pose():
+    # a local costmap in odom with the map in map: the map frame sits at (0.3, -0.2) in odom,
+    # turned by 0.1 rad; one lethal map cell, centre (0.525, 0.525) in map
+    lc = LayeredCostmap(40, 40, 0.05, footprint=PADDED, rolling_window=True, static_map=True, inflation_radius=0.0)
+    data = np.zeros((20, 20), dtype=np.int8)
+    data[10, 10] = 100
+    lc.set_static_map(data.ravel(), 20, 20, 0.05, 0.0, 0.0, "map", needs_pose=True)
+    lc.update(0.8, 0.5)
+    assert not (lc.costmap.costs == LETHAL_OBSTACLE).any()  # no pose yet: nothing written
+    lc.set_static_pose((0.3, -0.2, 0.1))
+    lc.update(0.8, 0.5)
+    c, s = math.cos(0.1), math.sin(0.1)
+    ox, oy = 0.3 + c * 0.525 - s * 0.525, -0.2 + s * 0.525 + c * 0.525  # (0.7698, 0.3748) in odom
+    assert lc.costmap.cost_at(ox, oy) == LETHAL_OBSTACLE
+    assert lc.costmap.cost_at(0.525, 0.525) == FREE_SPACE  # where it would be with the frames mixed up
+    lethal = np.argwhere(lc.costmap.costs == LETHAL_OBSTACLE)
+    assert 1 <= len(lethal) <= 4  # the cells the turned map cell overlaps
+    wx, wy = lc.costmap.map_to_world(lethal[:, 1], lethal[:, 0])
+    assert np.all(np.hypot(wx - ox, wy - oy) < 0.05 * math.sqrt(2))
+
+
+def test_coarser_turned_window_keeps_a_thin_static_wall_closed():
+    # a wall one 0.05 m cell thick seen through a 0.1 m window turned by 0.05 rad, off by half a
+    # cell: sampling only the cell centres lets the laser-invisible edge leak through
+    lc = LayeredCostmap(30, 30, 0.1, footprint=PADDED, rolling_window=True, static_map=True, inflation_radius=0.0)
+    data = np.zeros((60, 60), dtype=np.int8)
+    data[:, 30] = 100  # x 1.50 .. 1.55 m in map
+    lc.set_static_map(data.ravel(), 60, 60, 0.05, 0.0, 0.0, "map", needs_pose=True)
+    lc.set_static_pose((0.05, 0.0, 0.05))
+    lc.update(1.5, 1.5)
+    rows = lc.costmap.costs == LETHAL_OBSTACLE
+    assert rows.any(axis=1).all()  # every row of the window crosses the wall
+    assert rows.sum(axis=1).max() <= 3
+
+
+def test_static_map_of_another_frame_needs_a_rolling_window():
+    lc = LayeredCostmap(20, 20, 0.1, footprint=PADDED, static_map=True)
+    with pytest.raises(ValueError, match="rolling window"):
+        lc.set_static_map(np.zeros(100, dtype=np.int8), 10, 10, 0.1, 0.0, 0.0, "map", needs_pose=True)
+
+
 # --- recoveries --------------------------------------------------------------------------------
 def test_clear_outside_keeps_the_window_and_resets_the_rest():
     src = ObservationSource("scan")

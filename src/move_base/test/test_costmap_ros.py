@@ -39,29 +39,32 @@ def set_params(rospy, **overrides):
     rospy.set_param(f"~{NAME}", params)
 
 
+def make_tf(parent, child, xyz, quat):
+    from geometry_msgs.msg import TransformStamped
+
+    t = TransformStamped()
+    t.header.frame_id, t.child_frame_id = parent, child
+    t.transform.translation.x, t.transform.translation.y, t.transform.translation.z = xyz
+    (t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z, t.transform.rotation.w) = quat
+    return t
+
+
 class TfPublisher:
     """map -> base at (1.0, 1.02), yaw 0 (off a cell border: the map's float32 resolution is
     0.0500000007 m); base -> laser 0.1 m ahead, 0.2 m up, upside down
-    (rolled by pi); published on /tf at 20 Hz with the current time."""
+    (rolled by pi); plus ``extra`` (parent, child, xyz, quaternion xyzw) transforms; published on
+    /tf at 20 Hz with the current time."""
 
-    def __init__(self, rospy, publisher):
-        from geometry_msgs.msg import TransformStamped
+    def __init__(self, rospy, publisher, extra=()):
         from tf2_msgs.msg import TFMessage
 
         self.rospy = rospy
         self.pub = publisher("/tf", TFMessage)
         self.msg_class = TFMessage
-
-        def tf(parent, child, xyz, quat):
-            t = TransformStamped()
-            t.header.frame_id, t.child_frame_id = parent, child
-            t.transform.translation.x, t.transform.translation.y, t.transform.translation.z = xyz
-            (t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z, t.transform.rotation.w) = quat
-            return t
-
         self.transforms = [
-            tf("cmtest_map", "cmtest_base", (1.0, 1.02, 0.0), (0.0, 0.0, 0.0, 1.0)),
-            tf("cmtest_base", "cmtest_laser", (0.1, 0.0, 0.2), (1.0, 0.0, 0.0, 0.0)),
+            make_tf("cmtest_map", "cmtest_base", (1.0, 1.02, 0.0), (0.0, 0.0, 0.0, 1.0)),
+            make_tf("cmtest_base", "cmtest_laser", (0.1, 0.0, 0.2), (1.0, 0.0, 0.0, 0.0)),
+            *(make_tf(*t) for t in extra),
         ]
         self.stop = threading.Event()
         self.thread = threading.Thread(target=self.run, daemon=True)
@@ -201,3 +204,52 @@ def test_costmap_ros_rejects_bad_parameters(rospy_node, tf_buffer):
             Costmap2DROS(NAME, tf_buffer)
     finally:
         rospy_node.delete_param(f"~{NAME}")
+
+
+def test_rolling_costmap_places_the_map_through_tf(rospy_node, publisher, tf_buffer):
+    """A local costmap in an odom frame with a static map in the map frame (the keep-out map of
+    florence_sim): the map's wall lands where tf puts it, and moves when map -> odom does."""
+    from move_base.costmap_ros import Costmap2DROS
+    from nav_msgs.msg import OccupancyGrid
+
+    from florence_harness.pytest_plugin import wait_for
+
+    rospy = rospy_node
+    half = 0.05  # odom at (0.5, 0.0) in map, turned by 0.1 rad
+    odom = ("cmtest_map", "cmtest_odom", (0.5, 0.0, 0.0), (0.0, 0.0, math.sin(half), math.cos(half)))
+    set_params(rospy, global_frame="/cmtest_odom", rolling_window=True, width=4.0, height=4.0, observation_sources="")
+    tfp = TfPublisher(rospy, publisher, extra=[odom])
+    cm = Costmap2DROS(NAME, tf_buffer)
+    map_pub = publisher("cmtest_map", OccupancyGrid)
+    map_msg = make_map()
+
+    def map_arrived():
+        map_pub.publish(map_msg)
+        return cm.has_map()
+
+    c, s = math.cos(0.1), math.sin(0.1)
+
+    def in_odom(x, y):  # a map point in the odom frame
+        return c * (x - 0.5) + s * y, -s * (x - 0.5) + c * y
+
+    try:
+        wait_for(map_arrived, 10.0, interval=0.2, what="the costmap to get its map")
+        wait_for(cm.update_now, 10.0, what="a costmap update with the robot pose")
+        with cm.lock:
+            assert cm.costmap.cost_at(*in_odom(2.525, 1.02)) == 254  # the wall, through tf
+            assert cm.costmap.cost_at(*in_odom(2.525, 0.2)) == 254
+            assert cm.costmap.cost_at(2.525, 1.02) < 253  # not where the map's own numbers put it
+        moved = ("cmtest_map", "cmtest_odom", (0.6, 0.0, 0.0), (0.0, 0.0, math.sin(half), math.cos(half)))
+        tfp.transforms[-1] = make_tf(*moved)
+
+        def wall_moved():
+            cm.update_now()
+            with cm.lock:
+                return cm.costmap.cost_at(*in_odom(2.425, 1.02)) == 254
+
+        wait_for(wall_moved, 10.0, interval=0.1, what="the wall to follow map -> odom")
+    finally:
+        cm.shutdown()
+        tfp.close()
+        rospy.delete_param(f"~{NAME}")
+        tf_buffer.clear()

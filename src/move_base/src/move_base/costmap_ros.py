@@ -7,7 +7,8 @@ ROS Parameters (all in ``~<name>/``, read once, ROS defaults; pre-Hydro flat lay
     transform_tolerance (float, 0.3, s): oldest robot pose accepted.
     update_frequency (float, 5.0, Hz): update-loop rate (0: no loop, ``update_now`` only).
     publish_frequency (float, 0.0, Hz): rate of ``~<name>/costmap`` (0: never).
-    static_map (bool, true): use the map on ``map_topic`` (a global costmap takes its geometry).
+    static_map (bool, true): use the map on ``map_topic`` (a global costmap takes its geometry; a
+        rolling window in another frame places the map through tf at each update).
     rolling_window (bool, false): the grid follows the robot.
     width, height (float, 10.0, m), resolution (float, 0.05, m), origin_x, origin_y (float, 0.0, m).
     map_topic (str, "map"): the static map's topic.
@@ -328,6 +329,21 @@ class Costmap2DROS:
         yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
         return t.x, t.y, yaw
 
+    def _map_pose(self, frame):
+        """(x [m], y [m], yaw [rad]) of the static map's ``frame`` in global_frame, the newest
+        tf has, or None (a throttled warning; the map stays where it last was)."""
+        import tf2_ros
+
+        try:
+            tf = self.tf_buffer.lookup_transform(self.global_frame, frame, self._rospy.Time(0))
+        except tf2_ros.TransformException as exc:
+            self._rospy.logwarn_throttle(
+                5.0, f"{self.name}: the static map stays put: no transform {frame} -> {self.global_frame}: {exc}"
+            )
+            return None
+        t, q = tf.transform.translation, tf.transform.rotation
+        return t.x, t.y, math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+
     def _warn_pose(self, text):
         now = self._rospy.get_time()
         if now - self._last_pose_warning >= 1.0 or now < self._last_pose_warning:
@@ -342,7 +358,11 @@ class Costmap2DROS:
         if pose is None:
             return False
         x, y, yaw = pose
+        static = self.layered.static
+        map_pose = self._map_pose(static.frame_id) if static is not None and static.needs_pose else None
         with self.lock:
+            if map_pose is not None:
+                self.layered.set_static_pose(map_pose)
             self.layered.update(x, y, yaw)
         self._publish_footprint(x, y, yaw)
         if self.publish_frequency > 0.0:
@@ -388,7 +408,8 @@ class Costmap2DROS:
         q = msg.info.origin.orientation
         if abs(2.0 * (q.w * q.z + q.x * q.y)) > 1e-6:
             rospy.logwarn("%s: the map's origin is rotated; the rotation is ignored", self.name)
-        if frame and frame != self.global_frame:
+        needs_pose = bool(frame) and frame != self.global_frame and self.rolling_window
+        if frame and frame != self.global_frame and not self.rolling_window:
             rospy.logwarn(
                 "%s: the map is in frame %s, the costmap in %s; it is used as if in %s",
                 self.name,
@@ -406,6 +427,7 @@ class Costmap2DROS:
                 msg.info.origin.position.x,
                 msg.info.origin.position.y,
                 frame,
+                needs_pose,
             )
         rospy.loginfo(
             "%s: received a %d x %d map at %.3f m/cell", self.name, msg.info.width, msg.info.height, msg.info.resolution

@@ -157,6 +157,11 @@ class StaticLayer:
     >= ``lethal_cost_threshold`` is LETHAL_OBSTACLE, -1 is NO_INFORMATION with
     ``track_unknown_space`` and FREE_SPACE without, anything else FREE_SPACE. As in ROS the
     comparison is on the value read as an unsigned byte, so other negative values are lethal.
+
+    A map in another frame than the master grid's (a rolling local costmap in ``odom`` with a
+    map in ``map``) is placed by ``pose``: the map frame's (x [m], y [m], yaw [rad]) in the
+    master's frame, which the caller keeps up to date (``None``: the frames are the same). While
+    ``needs_pose`` is set and no pose is known, the map is not written at all.
     """
 
     def __init__(self, lethal_cost_threshold=100, track_unknown_space=False):
@@ -164,14 +169,17 @@ class StaticLayer:
         self.track_unknown_space = bool(track_unknown_space)
         self.grid = None  # Costmap2D of the map's geometry, or None before a map came
         self.frame_id = ""
+        self.pose = None
+        self.needs_pose = False
 
     @property
     def has_map(self):
         return self.grid is not None
 
-    def set_map(self, data, width, height, resolution, origin_x, origin_y, frame_id=""):
+    def set_map(self, data, width, height, resolution, origin_x, origin_y, frame_id="", needs_pose=False):
         """Take a map: ``data`` row-major int8 (height * width values), cell side ``resolution``
-        [m], corner of cell (0, 0) at (origin_x, origin_y) [m] (map's yaw assumed 0)."""
+        [m], corner of cell (0, 0) at (origin_x, origin_y) [m] in its frame (map's yaw assumed
+        0). ``needs_pose``: the map is in another frame than the master grid (see the class)."""
         raw = np.asarray(data).astype(np.int8, copy=False).reshape(int(height), int(width)).view(np.uint8)
         costs = np.full(raw.shape, FREE_SPACE, dtype=np.uint8)
         costs[raw >= self.lethal_cost_threshold] = LETHAL_OBSTACLE
@@ -181,33 +189,55 @@ class StaticLayer:
         grid.costs = costs
         self.grid = grid
         self.frame_id = frame_id
+        self.needs_pose = bool(needs_pose)
+        if not self.needs_pose:
+            self.pose = None
 
     def update_costs(self, master):
         """Write the map into the master grid (overwrite, ROS's updateWithTrueOverwrite). Same
-        geometry: copied whole; otherwise (rolling window) each master cell whose centre lies on
-        the map takes the map cell's cost, the others are left as they are."""
-        if self.grid is None:
+        geometry and frame: copied whole. Otherwise (rolling window, or a map placed by
+        ``pose``) each master cell that overlaps the map takes the worst of the map cells it
+        covers, judged by samples spread over the cell, at least two per map cell side: LETHAL
+        if any is, else NO_INFORMATION if any is, else FREE; cells off the map are left as
+        they are. The worst, not the cell at the centre, because a coarser or turned master
+        grid would otherwise drop thin walls and table edges."""
+        if self.grid is None or (self.needs_pose and self.pose is None):
             return
         g = self.grid
         if (
-            g.costs.shape == master.costs.shape
+            self.pose is None
+            and g.costs.shape == master.costs.shape
             and math.isclose(g.resolution, master.resolution)
             and math.isclose(g.origin_x, master.origin_x, abs_tol=1e-9)
             and math.isclose(g.origin_y, master.origin_y, abs_tol=1e-9)
         ):
             master.costs[...] = g.costs
             return
-        # rolling window: sample the map at the master cells' centres
-        cx = master.origin_x + (np.arange(master.size_x) + 0.5) * master.resolution
-        cy = master.origin_y + (np.arange(master.size_y) + 0.5) * master.resolution
-        mx = np.floor((cx - g.origin_x) / g.resolution).astype(np.int64)
-        my = np.floor((cy - g.origin_y) / g.resolution).astype(np.int64)
-        ok_x = (mx >= 0) & (mx < g.size_x)
-        ok_y = (my >= 0) & (my < g.size_y)
-        if not ok_x.any() or not ok_y.any():
-            return
-        ix, iy = np.nonzero(ok_x)[0], np.nonzero(ok_y)[0]
-        master.costs[np.ix_(iy, ix)] = g.costs[np.ix_(my[iy], mx[ix])]
+        k = math.ceil(master.resolution / g.resolution - 1e-9) + 1  # samples per cell side
+        frac = (np.arange(k) + 0.5) / k
+        sx = master.origin_x + (np.arange(master.size_x)[:, None] + frac).ravel() * master.resolution
+        sy = master.origin_y + (np.arange(master.size_y)[:, None] + frac).ravel() * master.resolution
+        wx, wy = np.meshgrid(sx, sy)  # (size_y * k, size_x * k) sample points, master frame
+        if self.pose is not None:  # into the map's frame
+            px, py, pyaw = self.pose
+            c, s = math.cos(pyaw), math.sin(pyaw)
+            dx, dy = wx - px, wy - py
+            wx, wy = c * dx + s * dy, -s * dx + c * dy
+        mx = np.floor((wx - g.origin_x) / g.resolution).astype(np.int64)
+        my = np.floor((wy - g.origin_y) / g.resolution).astype(np.int64)
+        on_map = (mx >= 0) & (mx < g.size_x) & (my >= 0) & (my < g.size_y)
+        rank = np.zeros(mx.shape, dtype=np.uint8)  # 0 off the map, then FREE < NO_INFORMATION < LETHAL
+        cost = g.costs[np.where(on_map, my, 0), np.where(on_map, mx, 0)]
+        rank[on_map] = _STATIC_RANK[cost[on_map]]
+        worst = rank.reshape(master.size_y, k, master.size_x, k).max(axis=(1, 3))
+        covered = worst > 0
+        master.costs[covered] = _RANKED_COST[worst[covered]]
+
+
+_STATIC_RANK = np.ones(256, dtype=np.uint8)  # a static cost's rank (static costs are trinary)
+_STATIC_RANK[NO_INFORMATION] = 2
+_STATIC_RANK[LETHAL_OBSTACLE] = 3
+_RANKED_COST = np.array([FREE_SPACE, FREE_SPACE, NO_INFORMATION, LETHAL_OBSTACLE], dtype=np.uint8)
 
 
 # --- obstacle layer ----------------------------------------------------------------------------
@@ -572,13 +602,16 @@ class LayeredCostmap:
         """True when the static layer got its map, or there is no static layer."""
         return self.static is None or self.static.has_map
 
-    def set_static_map(self, data, width, height, resolution, origin_x, origin_y, frame_id=""):
+    def set_static_map(self, data, width, height, resolution, origin_x, origin_y, frame_id="", needs_pose=False):
         """Give the static layer its map. Without a rolling window the master grid (and the
         obstacle layer, reset) take the map's size, resolution and origin, as ROS's StaticLayer
-        does with resizeMap."""
+        does with resizeMap. ``needs_pose``: the map is in another frame, placed by
+        :meth:`set_static_pose` (rolling window only)."""
         if self.static is None:
             raise RuntimeError("this costmap has no static layer (static_map is false)")
-        self.static.set_map(data, width, height, resolution, origin_x, origin_y, frame_id)
+        if needs_pose and not self.rolling_window:
+            raise ValueError("only a rolling window places a static map of another frame")
+        self.static.set_map(data, width, height, resolution, origin_x, origin_y, frame_id, needs_pose)
         if not self.rolling_window:
             c = self.costmap
             if (
@@ -590,6 +623,11 @@ class LayeredCostmap:
             ):
                 c.resize(width, height, resolution, origin_x, origin_y)
                 self.obstacles.match_size(c)
+
+    def set_static_pose(self, pose):
+        """Where the static map's frame is in the grid's frame now: (x [m], y [m], yaw [rad])."""
+        if self.static is not None:
+            self.static.pose = None if pose is None else tuple(float(v) for v in pose)
 
     def update(self, robot_x, robot_y, robot_yaw=None):
         """One costmap cycle for a robot at (robot_x, robot_y) [m]: move a rolling window, clear
