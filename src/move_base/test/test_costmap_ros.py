@@ -6,6 +6,7 @@ is left behind (the map and tf are published until received, the costmap's publi
 unregistered) and the shared tf buffer is cleared at the end.
 """
 
+import contextlib
 import math
 import threading
 
@@ -111,16 +112,17 @@ def make_scan(rospy, stamp):
     return scan
 
 
-@pytest.fixture
-def ros_costmap(rospy_node, publisher, tf_buffer):
+@contextlib.contextmanager
+def costmap_with_map(rospy, publisher, tf_buffer, extra_tf=(), **params):
+    """A Costmap2DROS with ``params`` over set_params' and its map received; yields (cm, the
+    TfPublisher); everything is shut down, unregistered and cleared at the end."""
     from move_base.costmap_ros import Costmap2DROS
     from nav_msgs.msg import OccupancyGrid
 
     from florence_harness.pytest_plugin import wait_for
 
-    rospy = rospy_node
-    set_params(rospy)
-    tfp = TfPublisher(rospy, publisher)
+    set_params(rospy, **params)
+    tfp = TfPublisher(rospy, publisher, extra=extra_tf)
     cm = Costmap2DROS(NAME, tf_buffer)
     map_pub = publisher("cmtest_map", OccupancyGrid)
     map_msg = make_map()
@@ -131,12 +133,20 @@ def ros_costmap(rospy_node, publisher, tf_buffer):
 
     try:
         wait_for(map_arrived, 10.0, interval=0.2, what="the costmap to get its map")
-        yield rospy, cm, publisher, wait_for
+        yield cm, tfp
     finally:
         cm.shutdown()
         tfp.close()
         rospy.delete_param(f"~{NAME}")
         tf_buffer.clear()
+
+
+@pytest.fixture
+def ros_costmap(rospy_node, publisher, tf_buffer):
+    from florence_harness.pytest_plugin import wait_for
+
+    with costmap_with_map(rospy_node, publisher, tf_buffer) as (cm, _):
+        yield rospy_node, cm, publisher, wait_for
 
 
 def test_costmap_ros_map_scan_and_published_grid(ros_costmap):
@@ -209,31 +219,17 @@ def test_costmap_ros_rejects_bad_parameters(rospy_node, tf_buffer):
 def test_rolling_costmap_places_the_map_through_tf(rospy_node, publisher, tf_buffer):
     """A local costmap in an odom frame with a static map in the map frame (the keep-out map of
     florence_sim): the map's wall lands where tf puts it, and moves when map -> odom does."""
-    from move_base.costmap_ros import Costmap2DROS
-    from nav_msgs.msg import OccupancyGrid
-
     from florence_harness.pytest_plugin import wait_for
 
-    rospy = rospy_node
     half = 0.05  # odom at (0.5, 0.0) in map, turned by 0.1 rad
     odom = ("cmtest_map", "cmtest_odom", (0.5, 0.0, 0.0), (0.0, 0.0, math.sin(half), math.cos(half)))
-    set_params(rospy, global_frame="/cmtest_odom", rolling_window=True, width=4.0, height=4.0, observation_sources="")
-    tfp = TfPublisher(rospy, publisher, extra=[odom])
-    cm = Costmap2DROS(NAME, tf_buffer)
-    map_pub = publisher("cmtest_map", OccupancyGrid)
-    map_msg = make_map()
-
-    def map_arrived():
-        map_pub.publish(map_msg)
-        return cm.has_map()
-
     c, s = math.cos(0.1), math.sin(0.1)
 
     def in_odom(x, y):  # a map point in the odom frame
         return c * (x - 0.5) + s * y, -s * (x - 0.5) + c * y
 
-    try:
-        wait_for(map_arrived, 10.0, interval=0.2, what="the costmap to get its map")
+    params = dict(global_frame="/cmtest_odom", rolling_window=True, width=4.0, height=4.0, observation_sources="")
+    with costmap_with_map(rospy_node, publisher, tf_buffer, extra_tf=[odom], **params) as (cm, tfp):
         wait_for(cm.update_now, 10.0, what="a costmap update with the robot pose")
         with cm.lock:
             assert cm.costmap.cost_at(*in_odom(2.525, 1.02)) == 254  # the wall, through tf
@@ -248,8 +244,3 @@ def test_rolling_costmap_places_the_map_through_tf(rospy_node, publisher, tf_buf
                 return cm.costmap.cost_at(*in_odom(2.425, 1.02)) == 254
 
         wait_for(wall_moved, 10.0, interval=0.1, what="the wall to follow map -> odom")
-    finally:
-        cm.shutdown()
-        tfp.close()
-        rospy.delete_param(f"~{NAME}")
-        tf_buffer.clear()
