@@ -8,8 +8,9 @@ to --pairs random goals in a row (each leg is one pair: from where the robot is 
 at least --clearance m from the walls and furniture of florence_sim's keep-out map, the map
 move_base plans on, reachable by ~make_plan).
 For each leg: outcome, simulated time, the planned (shortest) path length from move_base's
-~make_plan, the driven length, collisions from the simulator's bumpers, and where the time went
-(driving, turning on the spot, standing still).
+~make_plan, the driven length, collisions from the simulator's bumpers, the least ground-truth
+gap between the robot's body and the world, and where the time went (driving, turning on the
+spot, standing still). ``--clearance-of nav.json`` prints those gaps for a saved run.
 
 Figures and targets (issue 6): success >= 98 %, collisions 0, median time-to-goal <= 1.3 x
 (plan length / max_vel_x). The goals' yaws are random, and each leg starts and ends with a
@@ -34,6 +35,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
 RESULTS = ROOT / "bench" / "results"
 START = (1.0, 2.5, 0.0)
+WORLD = ROOT / "maps" / "apartment" / "apartment.world.yaml"  # turtlebot_2dnav_control.launch's default
 MAX_VEL_X = 0.5  # [m/s] the seed's TrajectoryPlannerROS max_vel_x
 MAX_VEL_TH = 1.5  # [rad/s] the seed's max_rotational_vel
 ACC_TH = 1.0  # [rad/s^2] velocity_filter's max_angular_acc, the base's real limit
@@ -130,6 +132,49 @@ def error_spread(errors, tolerance):
             "beyond_tolerance": int(np.sum(e > tolerance))}
 
 
+def robot_body():
+    """(radius, height) [m] of florence_sim's robot body: the Create's cylinder, and the top of
+    the robot, below which an obstacle stops it (as the simulator builds them from the URDF)."""
+    from florence_sim.node import base_dimensions
+    from florence_sim.robot_model import RobotModel
+
+    robot = RobotModel.from_xacro()
+    return base_dimensions(robot)["radius"], robot.height()
+
+
+def body_clearance(scene, track, radius, height):
+    """Least ground-truth gap [m] between the robot's body (a cylinder of ``radius`` up to
+    ``height``, what florence_sim's bumpers feel) and the world along a track (t, x, y, ...):
+    about 0.005 m or less is a bumper contact; None for an empty track."""
+    xy = np.asarray(track, dtype=float).reshape(-1, 6)[:, 1:3]
+    if len(xy) == 0:
+        return None
+    dist, _ = scene.clearance(xy, z_max=height, z_min=0.0)
+    return float(dist.min() - radius)
+
+
+def clearance_spread(values):
+    """Least, 5th percentile and median of the legs' least clearances [m]."""
+    v = np.array([x for x in values if x is not None])
+    if len(v) == 0:
+        return None
+    return {"min": float(v.min()), "p5": float(np.percentile(v, 5)), "median": float(np.median(v))}
+
+
+def clearance_of(path):
+    """Print the body clearances of the legs of a saved nav.json (from its saved tracks, every
+    5th ground-truth pose, so the least gap may be a little smaller than printed)."""
+    from florence_sim.world import load_world
+
+    data = json.loads(Path(path).read_text())
+    scene = load_world(WORLD).scene
+    radius, height = robot_body()
+    per_leg = [body_clearance(scene, leg["track"], radius, height) for leg in data["legs"]]
+    worst = sorted((c, i + 1) for i, c in enumerate(per_leg) if c is not None)[:5]
+    print(json.dumps({"file": str(path), "body_clearance_m": clearance_spread(per_leg),
+                      "closest_legs": [{"leg": i, "clearance_m": round(c, 4)} for c, i in worst]}, indent=1))
+
+
 def plan_length(make_plan, start, goal):
     from geometry_msgs.msg import PoseStamped
 
@@ -185,7 +230,11 @@ def main():
     parser.add_argument("--seed", type=int, default=1, help="goal and simulator noise seed")
     parser.add_argument("--clearance", type=float, default=0.4, help="least distance of a goal from obstacles [m]")
     parser.add_argument("--leg-timeout", type=float, default=180.0, help="simulated seconds per goal")
+    parser.add_argument("--clearance-of", metavar="JSON", help="only print the body clearances of a saved nav.json")
     args = parser.parse_args()
+    if args.clearance_of:
+        clearance_of(args.clearance_of)
+        return
 
     from florence_harness.processes import RosMaster, roslaunch, wait_for
 
@@ -219,6 +268,10 @@ def main():
         make_plan = rospy.ServiceProxy("/move_base/make_plan", GetPlan)
         pid = node_pid(master.uri, "/move_base")
 
+        from florence_sim.world import load_world
+
+        scene = load_world(WORLD).scene
+        radius, height = robot_body()
         legs = []
         goals = random_goals(grid, args.pairs * 3, args.clearance, rng)
         cpu0, sim0, wall0 = cpu_seconds(pid), session.sim_now(), time.monotonic()
@@ -239,6 +292,7 @@ def main():
             track = session.track(since=t0)
             rest = time_to_rest(track, t0)
             rest_error = goal_error(track, goal)[0]
+            clearance = body_clearance(scene, track, radius, height)  # until rest
             track = track[track[:, 0] <= t0 + took]
             end_error, end_yaw_error = goal_error(track, goal)
             legs.append({
@@ -250,6 +304,7 @@ def main():
                 **time_breakdown(track), **leg_phases(track, goal),
                 "collisions": session.collisions - collisions_before,
                 "collision_poses": [list(p) for p in session.collision_poses[poses_before:]],
+                "body_clearance_m": clearance,
                 "track": track[::5].round(3).tolist(),
             })
             print(f"{len(legs):3d}: {state:9s} {took:6.1f} s plan {ideal:5.2f} m ratio {legs[-1]['ratio']:4.2f} "
@@ -266,6 +321,8 @@ def main():
         result = {
             "pairs": len(legs), "succeeded": len(ok), "success_rate": len(ok) / max(1, len(legs)),
             "collisions": int(sum(leg["collisions"] for leg in legs)),
+            # each leg's least ground-truth gap between the robot's body and the world, every pose
+            "body_clearance_m": clearance_spread([leg["body_clearance_m"] for leg in legs]),
             "time_ratio_median": float(np.median(ratios)) if len(ratios) else None,
             "time_ratio_p90": float(np.percentile(ratios, 90)) if len(ratios) else None,
             "time_ratio_max": float(ratios.max()) if len(ratios) else None,

@@ -199,7 +199,7 @@ class SimNode:
         people = load_people(people_file, world.scene) if people_file else []
         robot = RobotModel(p("/robot_description")) if rospy.has_param("/robot_description") \
             else RobotModel.from_xacro()
-        dims = _base_dimensions(robot)
+        dims = base_dimensions(robot)
         base = BaseConfig(radius=dims["radius"], height=robot.height(), wheel_separation=dims["separation"],
                           **base_params)
         sim = Simulator(world, robot, base, SimConfig(dt=dt, rates=rates, laser=laser, camera=camera, seed=seed),
@@ -374,7 +374,7 @@ class SimNode:
                 self.pub_points.publish(m.points(stamp, depth, rgb))
 
 
-def _base_dimensions(robot):
+def base_dimensions(robot):
     """Footprint radius and wheel separation [m] from the description."""
     left = robot.pose("left_wheel_link")[1, 3]
     right = robot.pose("right_wheel_link")[1, 3]
