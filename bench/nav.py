@@ -166,7 +166,10 @@ def clearance_of(path):
     5th ground-truth pose, so the least gap may be a little smaller than printed)."""
     from florence_sim.world import load_world
 
-    data = json.loads(Path(path).read_text())
+    try:
+        data = json.loads(Path(path).read_text())
+    except (OSError, ValueError) as exc:
+        raise SystemExit(f"--clearance-of {path}: {exc}") from None
     scene = load_world(WORLD).scene
     radius, height = robot_body()
     per_leg = [body_clearance(scene, leg["track"], radius, height) for leg in data["legs"]]

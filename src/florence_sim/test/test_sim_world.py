@@ -79,6 +79,25 @@ def test_keepout_map_marks_what_the_robot_runs_into_above_the_laser(apartment):
     assert cell(keepout, 2.45, 5.5) == 254  # the living room door stays free
     assert np.all(keepout[laser == 0] == 0)  # everything the laser sees stays occupied
     assert np.all((keepout == 205) == (laser == 205))  # the same rooms
+
+
+def test_overhang_map_holds_only_what_the_laser_passes_under(apartment):
+    laser = mapgen.rasterize(apartment, LASER_HEIGHT)
+    keepout = mapgen.rasterize(apartment, LASER_HEIGHT, top=0.94)
+    overhang = mapgen.rasterize_overhang(apartment, LASER_HEIGHT, top=0.94)
+    origin = (-0.5, -0.5)
+
+    def cell(image, x, y):
+        row = image.shape[0] - 1 - int((y - origin[1]) / 0.05)
+        return image[row, int((x - origin[0]) / 0.05)]
+
+    assert cell(overhang, 3.4, 3.8) == 0  # the dining table's top
+    assert cell(overhang, 2.45, 3.8) == 0  # chair_west's seat
+    assert cell(overhang, 3.95, 4.15) == 254  # a table leg: the laser sees it
+    assert cell(overhang, 0.0, 3.0) == 254  # the west wall: the laser sees it
+    assert np.all((overhang == 0) == ((keepout == 0) & (laser != 0)))
+    assert np.all((overhang == 205) == (laser == 205))
+    assert (overhang == 0).sum() > 0.5 / 0.05**2  # the dining table alone is 1.2 x 0.8 m
     # a robot lower than the table top could go under it
     assert cell(mapgen.rasterize(apartment, LASER_HEIGHT, top=0.5), 3.4, 3.8) == 254
 

@@ -395,6 +395,25 @@ def test_coarser_turned_window_keeps_a_thin_static_wall_closed():
     assert rows.sum(axis=1).max() <= 3
 
 
+def test_rolling_window_frees_the_static_cells_under_the_robot_only():
+    # a map wall that amcl's error has moved under the robot's back edge: the robot must still
+    # be able to drive off it, and must not drive further into it
+    lc = LayeredCostmap(40, 40, 0.05, footprint=PADDED, rolling_window=True, static_map=True, inflation_radius=0.3)
+    data = np.zeros((40, 40), dtype=np.int8)
+    data[:, 14:19] = 100  # x 0.70 .. 0.95 m
+    lc.set_static_map(data.ravel(), 40, 40, 0.05, 0.0, 0.0)
+    lc.update(1.0, 1.0, 0.0)  # the padded footprint's back edge at x 0.83 m
+    assert lc.costmap.cost_at(0.875, 1.0) < LETHAL_OBSTACLE  # under the robot
+    assert lc.costmap.cost_at(0.875, 1.3) == LETHAL_OBSTACLE  # beside it
+    assert lc.costmap.cost_at(0.775, 1.0) == LETHAL_OBSTACLE  # behind it
+    assert lc.footprint_cost(1.05, 1.0, 0.0) >= 0  # it can move forward, off the wall
+    assert lc.footprint_cost(0.95, 1.0, 0.0) == -1.0  # not back into it
+    lc.clear_outside(1.0, 1.0, 1.0)  # a recovery rebuilds the grid: the robot's cells stay free
+    assert lc.costmap.cost_at(0.875, 1.0) < LETHAL_OBSTACLE
+    lc.update(1.0, 1.0)  # no heading: nothing is freed
+    assert lc.costmap.cost_at(0.875, 1.0) == LETHAL_OBSTACLE
+
+
 def test_static_map_of_another_frame_needs_a_rolling_window():
     lc = LayeredCostmap(20, 20, 0.1, footprint=PADDED, static_map=True)
     with pytest.raises(ValueError, match="rolling window"):

@@ -50,6 +50,17 @@ def rasterize(world, laser_height, top=None):
     return np.flipud(grid.reshape(height, width))
 
 
+def rasterize_overhang(world, laser_height, top):
+    """Occupancy image (as :func:`rasterize`) of only what the laser passes under: occupied where
+    the keep-out map up to ``top`` [m] is and the laser's map is not (table tops and chair seats,
+    not their legs, not the walls); every other cell of the rooms free, outside them unknown."""
+    laser = rasterize(world, laser_height)
+    keepout = rasterize(world, laser_height, top=top)
+    image = np.where(laser == UNKNOWN, UNKNOWN, FREE).astype(np.uint8)
+    image[(keepout == OCCUPIED) & (laser != OCCUPIED)] = OCCUPIED
+    return image
+
+
 def _points_in_polygon(points, polygon):
     """Vectorised even-odd test of points (N, 2) against one polygon (K, 2)."""
     x, y = points[:, 0:1], points[:, 1:2]

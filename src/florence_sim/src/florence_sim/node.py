@@ -42,6 +42,9 @@ ROS Publishers:
     ~keepout_map (nav_msgs/OccupancyGrid, latched): the same grid with every obstacle between the
         floor and the top of the robot (table tops, chair seats): where the robot cannot go
         although the laser sees only legs there (move_base's global costmap uses it in simulation)
+    ~overhang_map (nav_msgs/OccupancyGrid, latched): only what the laser passes under (table tops,
+        chair seats; not their legs, not the walls): move_base's local costmap uses it in
+        simulation, the laser places the rest exactly
     collisions (std_msgs/UInt32, latched): number of bumper contacts so far
     (a message is built only when its topic has subscribers; /clock and tf always)
     tf map->odom when ~fake_localization
@@ -136,15 +139,19 @@ class SimNode:
         self.pub_markers = P("~people_markers", MarkerArray, queue_size=2)
         self.pub_map = P("~map", OccupancyGrid, queue_size=1, latch=True)
         self.pub_keepout = P("~keepout_map", OccupancyGrid, queue_size=1, latch=True)
+        self.pub_overhang = P("~overhang_map", OccupancyGrid, queue_size=1, latch=True)
         self.pub_collisions = P("collisions", UInt32, queue_size=10, latch=True)
         self.tf = tf2_ros.TransformBroadcaster()
         self.msgs = _Messages(self.sim)
         self.pub_collisions.publish(0)
         self.published_collisions = 0
 
-        self.pub_map.publish(self.msgs.ground_truth_map(laser_height=self.sim.laser.mount[2, 3]))
-        self.pub_keepout.publish(self.msgs.ground_truth_map(laser_height=self.sim.laser.mount[2, 3],
-                                                            top=self.sim.base.cfg.height))
+        from florence_sim.mapgen import rasterize, rasterize_overhang
+
+        world, laser_height, top = self.sim.world, self.sim.laser.mount[2, 3], self.sim.base.cfg.height
+        self.pub_map.publish(self.msgs.ground_truth_map(rasterize(world, laser_height)))
+        self.pub_keepout.publish(self.msgs.ground_truth_map(rasterize(world, laser_height, top)))
+        self.pub_overhang.publish(self.msgs.ground_truth_map(rasterize_overhang(world, laser_height, top)))
 
         rospy.Subscriber("cmd_vel", Twist, self._on_cmd_vel, queue_size=10)
         rospy.Subscriber("tilt_angle", Float64, self._on_tilt, queue_size=10)
@@ -544,13 +551,14 @@ class _Messages:
         msg.data = cloud.tobytes()
         return msg
 
-    def ground_truth_map(self, laser_height, top=None):
+    def ground_truth_map(self, image):
+        """nav_msgs/OccupancyGrid in frame map of a :mod:`florence_sim.mapgen` image of the world."""
         from nav_msgs.msg import OccupancyGrid
 
-        from florence_sim.mapgen import FREE, OCCUPIED, rasterize
+        from florence_sim.mapgen import FREE, OCCUPIED
 
         world = self.sim.world
-        image = np.flipud(rasterize(world, laser_height, top))  # row 0 = lowest y, as OccupancyGrid wants
+        image = np.flipud(image)  # row 0 = lowest y, as OccupancyGrid wants
         grid = np.full(image.shape, -1, dtype=np.int8)
         grid[image == FREE] = 0
         grid[image == OCCUPIED] = 100

@@ -593,6 +593,7 @@ class LayeredCostmap:
         self.obstacles = ObstacleLayer(sources, track_unknown_space, now)
         self.obstacles.match_size(self.costmap)
         self.inflation = InflationLayer(self.inscribed_radius, inflation_radius, cost_scaling_factor)
+        self._under_robot = None  # (mx, my) master cells under the footprint at the last update
 
     @property
     def layers(self):
@@ -634,22 +635,26 @@ class LayeredCostmap:
         and mark the obstacle layer, clear the robot's footprint in it (heading ``robot_yaw``
         [rad]; costmap_2d clears the cells under the robot: whatever is there is the robot
         itself or a stale mark), then rebuild the master grid: default, static (overwrite),
-        obstacles (maximum), inflation."""
+        obstacles (maximum), inflation.
+
+        A rolling window also frees the cells under the footprint in what the static layer
+        wrote: a map placed through the localization's pose is off by its error, and a map cell
+        under the robot is that error, not an obstacle. Left in, it would hold every trajectory
+        (the footprint's outline on a lethal cell) with no recovery to clear it; the cells just
+        outside the footprint stay, so the robot can move off the map's obstacle, not into it."""
         c = self.costmap
         if self.rolling_window:
             w, h = c.size_m
             c.update_origin(robot_x - w / 2.0, robot_y - h / 2.0)
             self.obstacles.update_origin(robot_x - w / 2.0, robot_y - h / 2.0)
         self.obstacles.update()
-        if robot_yaw is not None and self.obstacles.grid is not None:
-            grid = self.obstacles.grid
-            mx, my = polygon_cells(grid, transform_footprint(self.footprint, robot_x, robot_y, robot_yaw))
-            grid.costs[my, mx] = FREE_SPACE
-        c.costs[...] = c.default_value
-        if self.static is not None:
-            self.static.update_costs(c)
-        self.obstacles.update_costs(c)
-        self.inflation.update_costs(c)
+        self._under_robot = None
+        if robot_yaw is not None:
+            self._under_robot = polygon_cells(c, transform_footprint(self.footprint, robot_x, robot_y, robot_yaw))
+            if self.obstacles.grid is not None:  # the same geometry as the master grid
+                mx, my = self._under_robot
+                self.obstacles.grid.costs[my, mx] = FREE_SPACE
+        self._recombine()
 
     def reset_layers(self, now=None):
         """Every layer back to its start (ROS resetLayers): obstacles forgotten, the master grid
@@ -675,6 +680,9 @@ class LayeredCostmap:
         c.costs[...] = c.default_value
         if self.static is not None:
             self.static.update_costs(c)
+            if self.rolling_window and self._under_robot is not None:
+                mx, my = self._under_robot
+                c.costs[my, mx] = FREE_SPACE
         self.obstacles.update_costs(c)
         self.inflation.update_costs(c)
 
