@@ -107,6 +107,29 @@ def test_rejects_bad_goals_with_a_reason(nav):
     assert session.collisions == 0
 
 
+def test_local_costmap_holds_the_chair_seat_the_laser_passes_under(nav, tf_buffer):
+    """The local costmap (in odom) has florence_sim's overhang map, placed through map -> odom: the
+    middle of the seat of the chair west of the dining table, 1.9 m from the start, is lethal,
+    although the Hokuyo sees only the chair's legs and the Kinect the seat's near edge."""
+    import rospy
+    from nav_msgs.msg import OccupancyGrid
+
+    _, stack = nav
+    seat = (2.45, 3.8)  # [m] in map (maps/apartment/apartment.world.yaml: chair_west)
+    msg = rospy.wait_for_message("/move_base/local_costmap/costmap", OccupancyGrid, 30)
+    tf = tf_buffer.lookup_transform(msg.header.frame_id, "map", rospy.Time(0), rospy.Duration(10))
+    t, q = tf.transform.translation, tf.transform.rotation
+    yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+    x = t.x + math.cos(yaw) * seat[0] - math.sin(yaw) * seat[1]
+    y = t.y + math.sin(yaw) * seat[0] + math.cos(yaw) * seat[1]
+    info = msg.info
+    col = int((x - info.origin.position.x) / info.resolution)
+    row = int((y - info.origin.position.y) / info.resolution)
+    assert 0 <= col < info.width and 0 <= row < info.height, f"the seat is outside the local window{dump(stack)}"
+    data = np.asarray(msg.data, dtype=np.int8).reshape(info.height, info.width)
+    assert data[row, col] == 100, f"the chair's seat costs {data[row, col]} in the local costmap{dump(stack)}"
+
+
 def test_every_pair_of_room_hotspots(nav):
     session, stack = nav
     legs = []
