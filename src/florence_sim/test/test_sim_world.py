@@ -84,7 +84,7 @@ def test_keepout_map_marks_what_the_robot_runs_into_above_the_laser(apartment):
 def test_overhang_map_holds_only_what_the_laser_passes_under(apartment):
     laser = mapgen.rasterize(apartment, LASER_HEIGHT)
     keepout = mapgen.rasterize(apartment, LASER_HEIGHT, top=0.94)
-    overhang = mapgen.rasterize_overhang(apartment, LASER_HEIGHT, top=0.94)
+    overhang = mapgen.overhang(laser, keepout)
     origin = (-0.5, -0.5)
 
     def cell(image, x, y):

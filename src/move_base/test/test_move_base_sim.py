@@ -112,16 +112,16 @@ def test_local_costmap_holds_the_chair_seat_the_laser_passes_under(nav, tf_buffe
     middle of the seat of the chair west of the dining table, 1.9 m from the start, is lethal,
     although the Hokuyo sees only the chair's legs and the Kinect the seat's near edge."""
     import rospy
+    from move_base.costmap_ros import pose_to_xyyaw
     from nav_msgs.msg import OccupancyGrid
 
     _, stack = nav
     seat = (2.45, 3.8)  # [m] in map (maps/apartment/apartment.world.yaml: chair_west)
     msg = rospy.wait_for_message("/move_base/local_costmap/costmap", OccupancyGrid, 30)
-    tf = tf_buffer.lookup_transform(msg.header.frame_id, "map", rospy.Time(0), rospy.Duration(10))
-    t, q = tf.transform.translation, tf.transform.rotation
-    yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
-    x = t.x + math.cos(yaw) * seat[0] - math.sin(yaw) * seat[1]
-    y = t.y + math.sin(yaw) * seat[0] + math.cos(yaw) * seat[1]
+    tx, ty, yaw = pose_to_xyyaw(tf_buffer.lookup_transform(msg.header.frame_id, "map", rospy.Time(0),
+                                                           rospy.Duration(10)))
+    x = tx + math.cos(yaw) * seat[0] - math.sin(yaw) * seat[1]
+    y = ty + math.sin(yaw) * seat[0] + math.cos(yaw) * seat[1]
     info = msg.info
     col = int((x - info.origin.position.x) / info.resolution)
     row = int((y - info.origin.position.y) / info.resolution)

@@ -50,12 +50,11 @@ def rasterize(world, laser_height, top=None):
     return np.flipud(grid.reshape(height, width))
 
 
-def rasterize_overhang(world, laser_height, top):
-    """Occupancy image (as :func:`rasterize`) of only what the laser passes under: occupied where
-    the keep-out map up to ``top`` [m] is and the laser's map is not (table tops and chair seats,
-    not their legs, not the walls); every other cell of the rooms free, outside them unknown."""
-    laser = rasterize(world, laser_height)
-    keepout = rasterize(world, laser_height, top=top)
+def overhang(laser, keepout):
+    """Occupancy image of only what the laser passes under, from the laser's map and the
+    keep-out map (:func:`rasterize` without and with ``top``): occupied where the keep-out map is
+    and the laser's is not (table tops and chair seats, not their legs, not the walls); every
+    other cell of the rooms free, outside them unknown."""
     image = np.where(laser == UNKNOWN, UNKNOWN, FREE).astype(np.uint8)
     image[(keepout == OCCUPIED) & (laser != OCCUPIED)] = OCCUPIED
     return image

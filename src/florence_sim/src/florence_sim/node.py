@@ -146,12 +146,14 @@ class SimNode:
         self.pub_collisions.publish(0)
         self.published_collisions = 0
 
-        from florence_sim.mapgen import rasterize, rasterize_overhang
+        from florence_sim.mapgen import overhang, rasterize
 
-        world, laser_height, top = self.sim.world, self.sim.laser.mount[2, 3], self.sim.base.cfg.height
-        self.pub_map.publish(self.msgs.ground_truth_map(rasterize(world, laser_height)))
-        self.pub_keepout.publish(self.msgs.ground_truth_map(rasterize(world, laser_height, top)))
-        self.pub_overhang.publish(self.msgs.ground_truth_map(rasterize_overhang(world, laser_height, top)))
+        world, laser_height = self.sim.world, self.sim.laser.mount[2, 3]
+        laser = rasterize(world, laser_height)
+        keepout = rasterize(world, laser_height, top=self.sim.base.cfg.height)
+        self.pub_map.publish(self.msgs.ground_truth_map(laser))
+        self.pub_keepout.publish(self.msgs.ground_truth_map(keepout))
+        self.pub_overhang.publish(self.msgs.ground_truth_map(overhang(laser, keepout)))
 
         rospy.Subscriber("cmd_vel", Twist, self._on_cmd_vel, queue_size=10)
         rospy.Subscriber("tilt_angle", Float64, self._on_tilt, queue_size=10)

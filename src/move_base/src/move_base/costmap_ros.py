@@ -69,6 +69,17 @@ def cost_translation_table():
 _TABLE = cost_translation_table()
 
 
+def yaw_of(q):
+    """Yaw [rad] of a geometry_msgs/Quaternion (its rotation about z)."""
+    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+
+
+def pose_to_xyyaw(transform_stamped):
+    """(x [m], y [m], yaw [rad]) of a geometry_msgs/TransformStamped."""
+    t = transform_stamped.transform
+    return t.translation.x, t.translation.y, yaw_of(t.rotation)
+
+
 def strip_slash(frame):
     return frame.lstrip("/") if frame else frame
 
@@ -325,9 +336,7 @@ class Costmap2DROS:
                 f"(transform_tolerance {self.transform_tolerance:.3f} s)"
             )
             return None
-        t, q = tf.transform.translation, tf.transform.rotation
-        yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
-        return t.x, t.y, yaw
+        return pose_to_xyyaw(tf)
 
     def _map_pose(self, frame):
         """(x [m], y [m], yaw [rad]) of the static map's ``frame`` in global_frame, the newest
@@ -341,8 +350,7 @@ class Costmap2DROS:
                 5.0, f"{self.name}: the static map stays put: no transform {frame} -> {self.global_frame}: {exc}"
             )
             return None
-        t, q = tf.transform.translation, tf.transform.rotation
-        return t.x, t.y, math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+        return pose_to_xyyaw(tf)
 
     def _warn_pose(self, text):
         now = self._rospy.get_time()
@@ -408,8 +416,9 @@ class Costmap2DROS:
         q = msg.info.origin.orientation
         if abs(2.0 * (q.w * q.z + q.x * q.y)) > 1e-6:
             rospy.logwarn("%s: the map's origin is rotated; the rotation is ignored", self.name)
-        needs_pose = bool(frame) and frame != self.global_frame and self.rolling_window
-        if frame and frame != self.global_frame and not self.rolling_window:
+        other_frame = bool(frame) and frame != self.global_frame
+        needs_pose = other_frame and self.rolling_window  # placed through tf at each update
+        if other_frame and not self.rolling_window:
             rospy.logwarn(
                 "%s: the map is in frame %s, the costmap in %s; it is used as if in %s",
                 self.name,

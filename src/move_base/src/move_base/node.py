@@ -59,7 +59,7 @@ from nav_msgs.srv import GetPlan, GetPlanResponse
 from std_srvs.srv import Empty, EmptyResponse
 
 from move_base.costmap_2d import LETHAL_OBSTACLE
-from move_base.costmap_ros import Costmap2DROS
+from move_base.costmap_ros import Costmap2DROS, pose_to_xyyaw, yaw_of
 from move_base.layers import footprint_cost
 from move_base.local_planner import LocalPlanner
 from move_base.move_base_core import MoveBaseCore, MoveBaseParams
@@ -70,10 +70,6 @@ from move_base.trajectory_planner import PlannerParams
 LOG = "move_base: "
 GLOBAL_PLANNERS = ("navfn/NavfnROS", "NavfnROS")
 LOCAL_PLANNERS = ("base_local_planner/TrajectoryPlannerROS", "TrajectoryPlannerROS")
-
-
-def yaw_of(q):
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
 
 
 def quaternion_problem(q):
@@ -106,11 +102,6 @@ def goal_is_hopeless(layered, x, y):
     if static is None or static.grid is None:
         return False
     return static.grid.cost_at(x, y) == LETHAL_OBSTACLE
-
-
-def pose_to_xyyaw(transform_stamped):
-    t = transform_stamped.transform
-    return t.translation.x, t.translation.y, yaw_of(t.rotation)
 
 
 def apply_transform(xyyaw, poses):
