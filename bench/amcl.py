@@ -165,7 +165,7 @@ def main():
         print(f"wrote {RESULTS / 'amcl_offline.json'}")
         return
 
-    from florence_harness.processes import ManagedProcess, RosMaster, roslaunch, wait_for
+    from florence_common.processes import ManagedProcess, RosMaster, roslaunch, wait_for
 
     RESULTS.mkdir(parents=True, exist_ok=True)
     master = RosMaster().start()

@@ -26,8 +26,8 @@ from pathlib import Path
 from hokuyo_node.urg_emulator import STEPS, UrgEmulator
 from turtlebot_node.create_emulator import CreateEmulator
 
-from florence_harness.processes import ManagedProcess, RosMaster, wait_for
-from florence_harness.pty_device import PtyDevice
+from florence_common.processes import ManagedProcess, RosMaster, wait_for
+from florence_common.pty_device import PtyDevice
 from hokuyo_node import scip
 
 ROOT = Path(__file__).resolve().parents[1]

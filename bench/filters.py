@@ -116,7 +116,7 @@ def processing_times(repeat):
 
 def velocity_filter_jitter(seconds):
     """Receive-time periods of /filtered_cmd_vel in this process while the node runs on a private master."""
-    from florence_harness.processes import ManagedProcess, RosMaster, wait_for
+    from florence_common.processes import ManagedProcess, RosMaster, wait_for
 
     master = RosMaster().start()
     os.environ.update({k: v for k, v in master.env().items() if k.startswith("ROS_")})

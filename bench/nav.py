@@ -239,7 +239,7 @@ def main():
         clearance_of(args.clearance_of)
         return
 
-    from florence_harness.processes import RosMaster, roslaunch, wait_for
+    from florence_common.processes import RosMaster, roslaunch, wait_for
 
     RESULTS.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(args.seed)

@@ -114,7 +114,7 @@ def _node_pid(launch_pid):
 
 def run_ros(seconds):
     """The node unthrottled, without and then with a depth subscriber."""
-    from florence_harness.processes import RosMaster, roslaunch, wait_for
+    from florence_common.processes import RosMaster, roslaunch, wait_for
 
     master = RosMaster().start()
     os.environ.update({k: v for k, v in master.env().items() if k.startswith("ROS_")})

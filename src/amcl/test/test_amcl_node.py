@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from map_server.mapfile import GridMap, save_map
 
-from florence_harness.processes import ManagedProcess, wait_for
+from florence_common.processes import ManagedProcess, wait_for
 
 pytestmark = pytest.mark.ros
 

@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
+from florence_common.processes import ManagedProcess, wait_for
 from florence_harness import workspace
-from florence_harness.processes import ManagedProcess, wait_for
 
 pytestmark = pytest.mark.ros
 

@@ -7,9 +7,9 @@ import pytest
 import roslaunch.config
 import roslaunch.xmlloader
 
+from florence_common.processes import roslaunch as start_roslaunch
+from florence_common.processes import stop_all, wait_for
 from florence_harness import workspace
-from florence_harness.processes import roslaunch as start_roslaunch
-from florence_harness.processes import stop_all, wait_for
 
 TELEOP_TIMEOUT = 0.5  # [s] config/cmd_vel_mux.yaml
 

@@ -40,7 +40,7 @@ def test_demo_stopped_by_sigterm_leaves_no_process(tmp_path):
     import os
     import signal
 
-    from florence_harness.processes import ManagedProcess, descendant_pids, pid_alive, wait_for
+    from florence_common.processes import ManagedProcess, descendant_pids, pid_alive, wait_for
 
     # A stand-in viewer that stays open, so the demo is certainly still running when signalled.
     bin_dir = tmp_path / "bin"

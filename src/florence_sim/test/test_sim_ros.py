@@ -12,7 +12,7 @@ import time
 import numpy as np
 import pytest
 
-from florence_harness.processes import roslaunch, wait_for
+from florence_common.processes import roslaunch, wait_for
 
 RTF = 3.0  # small world
 RTF_APARTMENT = 2.0
@@ -421,7 +421,7 @@ class TestApartment:
 @pytest.mark.ros
 def test_malformed_world_stops_the_node_with_file_and_field(tmp_path):
     """A private master: the node's private parameters must not leak into other tests."""
-    from florence_harness.processes import ManagedProcess, RosMaster
+    from florence_common.processes import ManagedProcess, RosMaster
 
     world = tmp_path / "bad.world.yaml"
     world.write_text("map: {resolution: 0.05, bounds: [[0, 0], [4, 4]]}\nobjects:\n  - {type: sofa, pose: [1, 1]}\n")

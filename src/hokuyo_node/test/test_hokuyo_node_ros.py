@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from hokuyo_node.urg_emulator import STEPS, UrgEmulator
 
-from florence_harness.processes import ManagedProcess, pid_alive, wait_for
-from florence_harness.pty_device import PtyDevice
+from florence_common.processes import ManagedProcess, pid_alive, wait_for
+from florence_common.pty_device import PtyDevice
 
 pytestmark = pytest.mark.ros
 

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from florence_harness.processes import roslaunch, rosrun, stop_all, wait_for
+from florence_common.processes import roslaunch, rosrun, stop_all, wait_for
 
 pytestmark = pytest.mark.ros
 

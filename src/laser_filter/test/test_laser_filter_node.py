@@ -5,7 +5,7 @@ import math
 
 import pytest
 
-from florence_harness.processes import roslaunch, stop_all, wait_for
+from florence_common.processes import roslaunch, stop_all, wait_for
 
 pytestmark = pytest.mark.ros
 

@@ -9,7 +9,7 @@ import pytest
 from map_server.mapfile import load_map
 from PIL import Image
 
-from florence_harness.processes import ManagedProcess, wait_for
+from florence_common.processes import ManagedProcess, wait_for
 
 pytestmark = pytest.mark.ros
 

@@ -119,7 +119,7 @@ def costmap_with_map(rospy, publisher, tf_buffer, extra_tf=(), **params):
     from move_base.costmap_ros import Costmap2DROS
     from nav_msgs.msg import OccupancyGrid
 
-    from florence_harness.pytest_plugin import wait_for
+    from florence_common.processes import wait_for
 
     set_params(rospy, **params)
     tfp = TfPublisher(rospy, publisher, extra=extra_tf)
@@ -143,7 +143,7 @@ def costmap_with_map(rospy, publisher, tf_buffer, extra_tf=(), **params):
 
 @pytest.fixture
 def ros_costmap(rospy_node, publisher, tf_buffer):
-    from florence_harness.pytest_plugin import wait_for
+    from florence_common.processes import wait_for
 
     with costmap_with_map(rospy_node, publisher, tf_buffer) as (cm, _):
         yield rospy_node, cm, publisher, wait_for
@@ -219,7 +219,7 @@ def test_costmap_ros_rejects_bad_parameters(rospy_node, tf_buffer):
 def test_rolling_costmap_places_the_map_through_tf(rospy_node, publisher, tf_buffer):
     """A local costmap in an odom frame with a static map in the map frame (the keep-out map of
     florence_sim): the map's wall lands where tf puts it, and moves when map -> odom does."""
-    from florence_harness.pytest_plugin import wait_for
+    from florence_common.processes import wait_for
 
     half = 0.05  # odom at (0.5, 0.0) in map, turned by 0.1 rad
     odom = ("cmtest_map", "cmtest_odom", (0.5, 0.0, 0.0), (0.0, 0.0, math.sin(half), math.cos(half)))

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 import yaml
 
+from florence_common.processes import roslaunch, wait_for
 from florence_harness import workspace
-from florence_harness.processes import roslaunch, wait_for
 
 pytestmark = pytest.mark.ros
 

@@ -7,7 +7,7 @@ import time
 import numpy as np
 import pytest
 
-from florence_harness.processes import ManagedProcess, roslaunch, stop_all, wait_for
+from florence_common.processes import ManagedProcess, roslaunch, stop_all, wait_for
 
 pytestmark = pytest.mark.ros
 

@@ -130,7 +130,7 @@ def test_kinect_tilt_joint_state_moves_the_camera(launch, tf_buffer, rospy_node)
     rospy = rospy_node
     from sensor_msgs.msg import JointState
 
-    from florence_harness.processes import wait_for
+    from florence_common.processes import wait_for
 
     launch("turtlebot_control", "description.launch")
     pub = rospy.Publisher("kinect_aux/joint_states", JointState, queue_size=1)

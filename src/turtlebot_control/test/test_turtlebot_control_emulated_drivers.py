@@ -5,7 +5,7 @@ import threading
 
 import pytest
 
-from florence_harness.processes import wait_for
+from florence_common.processes import wait_for
 
 pytestmark = pytest.mark.ros
 

@@ -8,8 +8,8 @@ from pathlib import Path
 import pytest
 from turtlebot_node.create_emulator import CreateEmulator
 
-from florence_harness.processes import ManagedProcess, pid_alive, stop_all, wait_for
-from florence_harness.pty_device import PtyDevice
+from florence_common.processes import ManagedProcess, pid_alive, stop_all, wait_for
+from florence_common.pty_device import PtyDevice
 from turtlebot_node import oi_spec as oi
 
 pytestmark = pytest.mark.ros

@@ -10,8 +10,8 @@ import gc
 import pycreate2
 from turtlebot_node.create_emulator import CreateEmulator
 
-from florence_harness.processes import wait_for
-from florence_harness.pty_device import PtyDevice
+from florence_common.processes import wait_for
+from florence_common.pty_device import PtyDevice
 from turtlebot_node import oi_spec as oi
 
 

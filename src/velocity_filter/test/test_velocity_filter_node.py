@@ -8,7 +8,7 @@ import time
 import numpy as np
 import pytest
 
-from florence_harness.processes import roslaunch, stop_all, wait_for
+from florence_common.processes import roslaunch, stop_all, wait_for
 
 pytestmark = pytest.mark.ros
 

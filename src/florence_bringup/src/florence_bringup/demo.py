@@ -37,7 +37,7 @@ import xml.etree.ElementTree as ET
 from map_server.mapfile import atomic_write
 
 from florence_bringup.tf_report import FrameLink, check_conventions, render_tree
-from florence_harness.processes import HarnessError, ManagedProcess, RosMaster, roslaunch, wait_for
+from florence_common.processes import ManagedProcess, ProcessError, RosMaster, roslaunch, wait_for
 
 ROOT_FRAME = "base_footprint"
 TELEOP = "/cmd_vel_mux/input/teleop"
@@ -168,7 +168,7 @@ class Driver:
         cmd = self.Twist()
         while not done() and self.obs.now() - start < sim_limit:
             if time.monotonic() > deadline:
-                raise HarnessError(f"a move did not finish in {self.timeout:.0f} s")
+                raise ProcessError(f"a move did not finish in {self.timeout:.0f} s")
             cmd.linear.x, cmd.angular.z = command()
             self.pub.publish(cmd)
             time.sleep(0.05)
@@ -244,7 +244,7 @@ def run_scenario(rospy, obs, timeout):
         "bob", "{path: [[1.0, 7.4], [4.8, 7.4]], speed: 0.4, mode: back_and_forth, pause: 2.0, "
                "shirt: [0.1, 0.3, 0.85]}")
     if not res.success:
-        raise HarnessError(f"set_person bob: {res.message}")
+        raise ProcessError(f"set_person bob: {res.message}")
     record("start in the living room (bob sent to walk in the bedroom)")
     driver.straight(1.7)
     record("through the door into the corridor")
@@ -304,7 +304,7 @@ def run_navigation(rospy, timeout):
         remove(person)  # person avoidance is the scenario tests' (test_move_base_sim.py)
     session = NavSession()
     if not session.wait_ready(timeout):
-        raise HarnessError("move_base's action server did not come up")
+        raise ProcessError("move_base's action server did not come up")
     time.sleep(1.0)  # a fresh action client's first goal can be lost while the connections settle
     collisions_before = _collisions(rospy, timeout)
     rows = []
@@ -350,7 +350,7 @@ def _check_running(sim, rospy, timeout):
             return None
 
     if wait_for(started, timeout, what="the simulator's /clock") == "died":
-        raise HarnessError("florence_sim.launch exited at start-up (see its output above)")
+        raise ProcessError("florence_sim.launch exited at start-up (see its output above)")
 
 
 def _collisions(rospy, timeout):
@@ -523,7 +523,7 @@ def main(argv=None):
             rviz.proc.wait()
         rospy.signal_shutdown("demo over")
         return 0 if passed else 1
-    except HarnessError as exc:
+    except ProcessError as exc:
         for proc in processes:
             print(f"----- {proc.name} -----\n{proc.output()}", file=sys.stderr)
         print(f"demo: FAILED: {exc}", file=sys.stderr)

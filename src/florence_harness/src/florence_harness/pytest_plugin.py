@@ -20,7 +20,7 @@ import os
 
 import pytest
 
-from florence_harness.processes import RosMaster, roslaunch, wait_for
+from florence_common.processes import RosMaster, roslaunch, wait_for
 
 __all__ = ["wait_for"]
 

@@ -22,7 +22,7 @@ import threading
 import rospy
 from std_msgs.msg import Float32MultiArray
 
-from florence_harness.pty_device import PtyDevice
+from florence_common.pty_device import PtyDevice
 from hokuyo_node import scip_spec as spec
 from hokuyo_node.urg_emulator import STEPS, UrgEmulator
 

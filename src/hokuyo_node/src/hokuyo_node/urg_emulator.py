@@ -15,7 +15,7 @@ Fault injection for tests (``faults`` list, consumed one per scan):
 in the middle (a partial reply), "status" sends status 50 (hardware trouble).
 
 The core is transport-free: ``feed(data, now)`` and ``poll(now)`` return the
-bytes to send (see :class:`florence_harness.pty_device.PtyDevice`).
+bytes to send (see :class:`florence_common.pty_device.PtyDevice`).
 """
 
 import logging

@@ -22,7 +22,7 @@ What it models:
   emulated time, pause/resume 150).
 
 The core is transport-free: ``feed(data, now)`` and ``poll(now)`` return the
-bytes to send (see :class:`florence_harness.pty_device.PtyDevice`).
+bytes to send (see :class:`florence_common.pty_device.PtyDevice`).
 """
 
 import logging

@@ -28,7 +28,7 @@ import rospy
 from nav_msgs.msg import Odometry
 from std_msgs.msg import UInt8
 
-from florence_harness.pty_device import PtyDevice
+from florence_common.pty_device import PtyDevice
 from turtlebot_node.create_emulator import CreateEmulator
 
 

@@ -6,7 +6,7 @@ import time
 
 import pytest
 
-from florence_harness.processes import HarnessError, ManagedProcess, RosMaster, free_port, pid_alive, wait_for
+from florence_common.processes import ManagedProcess, ProcessError, RosMaster, free_port, pid_alive, wait_for
 
 
 def test_free_port_is_bindable_and_not_the_default():
@@ -19,7 +19,7 @@ def test_free_port_is_bindable_and_not_the_default():
 def test_wait_for_returns_value_and_times_out():
     t0 = time.monotonic()
     assert wait_for(lambda: time.monotonic() - t0 > 0.1 and "done", 5.0) == "done"
-    with pytest.raises(HarnessError, match="the impossible"):
+    with pytest.raises(ProcessError, match="the impossible"):
         wait_for(lambda: False, 0.2, what="the impossible")
 
 

@@ -21,7 +21,7 @@ import xmlrpc.client
 
 log = logging.getLogger(__name__)
 
-class HarnessError(RuntimeError):
+class ProcessError(RuntimeError):
     """A process did not start, or a condition did not come true in time."""
 
 
@@ -64,7 +64,7 @@ def descendant_pids(pid):
 def wait_for(predicate, timeout, interval=0.05, what="condition"):
     """Poll ``predicate()`` until it returns a truthy value; return that value.
 
-    Raises :class:`HarnessError` naming ``what`` once ``timeout`` [s] of wall time
+    Raises :class:`ProcessError` naming ``what`` once ``timeout`` [s] of wall time
     has passed. Exceptions from the predicate count as "not yet".
     """
     deadline = time.monotonic() + timeout
@@ -78,7 +78,7 @@ def wait_for(predicate, timeout, interval=0.05, what="condition"):
             last_error = exc
         if time.monotonic() >= deadline:
             detail = f" (last error: {last_error!r})" if last_error else ""
-            raise HarnessError(f"timed out after {timeout:.1f} s waiting for {what}{detail}")
+            raise ProcessError(f"timed out after {timeout:.1f} s waiting for {what}{detail}")
         time.sleep(interval)
 
 
@@ -113,8 +113,9 @@ class ManagedProcess:
         return self.proc.poll() is None
 
     def output(self, tail_bytes=20000):
-        """The last ``tail_bytes`` of what the process printed."""
-        self._log.flush()
+        """The last ``tail_bytes`` of what the process printed (also after stop())."""
+        if not self._log.closed:
+            self._log.flush()
         try:
             with open(self.log_path, "rb") as f:
                 f.seek(0, os.SEEK_END)
@@ -187,17 +188,17 @@ class RosMaster:
         )
         try:
             wait_for(self.is_up, timeout, what=f"rosmaster on port {self.port}")
-        except HarnessError:
+        except ProcessError:
             out = self.process.output()
             self.stop()
-            raise HarnessError(f"rosmaster did not come up on port {self.port}:\n{out}") from None
+            raise ProcessError(f"rosmaster did not come up on port {self.port}:\n{out}") from None
         return self
 
     def is_up(self):
         if self.process is not None and not self.process.running():
-            raise HarnessError("rosmaster exited")
+            raise ProcessError("rosmaster exited")
         proxy = xmlrpc.client.ServerProxy(self.uri)
-        code, _, _ = proxy.getPid("/florence_harness")
+        code, _, _ = proxy.getPid("/florence_common_processes")
         return code == 1
 
     def stop(self):

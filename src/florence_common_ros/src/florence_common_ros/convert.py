@@ -1,0 +1,119 @@
+"""Message conversions: geometry_msgs poses and transforms <-> (x, y, yaw) and 4x4 matrices,
+sensor_msgs/Image <-> numpy arrays (through Debian's cv_bridge).
+
+The maths is florence_common.pose's; this module only unpacks and packs messages.
+"""
+
+import numpy as np
+from geometry_msgs.msg import Pose, PoseStamped, Quaternion, Transform, TransformStamped
+
+from florence_common import pose as pose2d
+
+# --- orientations -------------------------------------------------------------------------------
+
+
+def quaternion_msg(yaw):
+    """geometry_msgs/Quaternion of a rotation by ``yaw`` [rad] about z."""
+    return Quaternion(*pose2d.yaw_to_quaternion(float(yaw)))
+
+
+def yaw_of(q):
+    """Yaw [rad] of a geometry_msgs/Quaternion (ValueError for a zero quaternion)."""
+    return pose2d.quaternion_to_yaw((q.x, q.y, q.z, q.w))
+
+
+def quaternion_tuple(q):
+    return (q.x, q.y, q.z, q.w)
+
+
+# --- poses and transforms ----------------------------------------------------------------------------
+
+
+def _pose_parts(msg):
+    """(position-like, orientation) of a Pose, PoseStamped, PoseWithCovariance(Stamped),
+    Odometry, Transform or TransformStamped."""
+    for attr in ("pose", "transform"):  # unwrap stamped / covariance / odometry layers
+        while hasattr(msg, attr):
+            msg = getattr(msg, attr)
+    if isinstance(msg, Transform):
+        return msg.translation, msg.rotation
+    return msg.position, msg.orientation
+
+
+def to_xyyaw(msg):
+    """(x [m], y [m], yaw [rad]) of any pose or transform message (see _pose_parts)."""
+    p, q = _pose_parts(msg)
+    return float(p.x), float(p.y), yaw_of(q)
+
+
+def pose_msg(x, y, yaw):
+    """geometry_msgs/Pose at (x, y, 0) with heading ``yaw``."""
+    msg = Pose()
+    msg.position.x, msg.position.y = float(x), float(y)
+    msg.orientation = quaternion_msg(yaw)
+    return msg
+
+
+def pose_stamped(x, y, yaw, frame_id, stamp=None):
+    msg = PoseStamped()
+    msg.header.frame_id = frame_id
+    if stamp is not None:
+        msg.header.stamp = stamp
+    msg.pose = pose_msg(x, y, yaw)
+    return msg
+
+
+def transform_stamped(stamp, parent, child, x, y, yaw, z=0.0):
+    """geometry_msgs/TransformStamped of a planar pose of ``child`` in ``parent``."""
+    t = TransformStamped()
+    t.header.stamp, t.header.frame_id, t.child_frame_id = stamp, parent, child
+    t.transform.translation.x, t.transform.translation.y, t.transform.translation.z = float(x), float(y), float(z)
+    t.transform.rotation = quaternion_msg(yaw)
+    return t
+
+
+def to_matrix(msg):
+    """4x4 homogeneous matrix of any pose or transform message."""
+    p, q = _pose_parts(msg)
+    return pose2d.transform_matrix((p.x, p.y, p.z), quaternion_tuple(q))
+
+
+def matrix_to_transform_msg(m):
+    """geometry_msgs/Transform of a 4x4 homogeneous matrix."""
+    (x, y, z), q = pose2d.matrix_to_transform(m)
+    t = Transform()
+    t.translation.x, t.translation.y, t.translation.z = x, y, z
+    t.rotation = Quaternion(*q)
+    return t
+
+
+# --- images ----------------------------------------------------------------------------------------------
+_bridge = None
+
+
+def _cv_bridge():
+    global _bridge  # noqa: PLW0603 - one CvBridge per process, made on first use
+    if _bridge is None:
+        from cv_bridge import CvBridge
+
+        _bridge = CvBridge()
+    return _bridge
+
+
+def image_to_array(msg, encoding="passthrough"):
+    """numpy array of a sensor_msgs/Image (cv_bridge: ``encoding`` as its desired_encoding).
+    Raises ValueError (with cv_bridge's reason) for an image that does not decode."""
+    from cv_bridge import CvBridgeError
+
+    try:
+        return _cv_bridge().imgmsg_to_cv2(msg, desired_encoding=encoding)
+    except (CvBridgeError, TypeError, ValueError) as exc:
+        raise ValueError(f"{msg.width}x{msg.height} {msg.encoding!r} image: {exc}") from exc
+
+
+def array_to_image(array, encoding, header=None):
+    """sensor_msgs/Image of a numpy array (cv_bridge), with ``header`` when given."""
+    msg = _cv_bridge().cv2_to_imgmsg(np.ascontiguousarray(array), encoding=encoding)
+    if header is not None:
+        msg.header = header
+    return msg

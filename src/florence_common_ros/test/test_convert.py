@@ -1,0 +1,61 @@
+"""Message conversions: poses, transforms, matrices and images."""
+
+import math
+
+import numpy as np
+import pytest
+from geometry_msgs.msg import PoseWithCovarianceStamped, Quaternion, TransformStamped
+from nav_msgs.msg import Odometry
+from std_msgs.msg import Header
+
+from florence_common_ros import convert
+
+pytestmark = pytest.mark.unit
+
+
+def test_quaternion_msg_and_yaw_of():
+    q = convert.quaternion_msg(math.pi / 2)
+    assert (q.x, q.y) == (0.0, 0.0)
+    assert (q.z, q.w) == pytest.approx((math.sqrt(0.5), math.sqrt(0.5)))
+    assert convert.yaw_of(q) == pytest.approx(math.pi / 2)
+    with pytest.raises(ValueError):
+        convert.yaw_of(Quaternion(0, 0, 0, 0))
+
+
+def test_to_xyyaw_reads_every_pose_layer():
+    odom = Odometry()
+    odom.pose.pose = convert.pose_msg(1.0, 2.0, 0.5)
+    assert convert.to_xyyaw(odom) == pytest.approx((1.0, 2.0, 0.5))
+    pwc = PoseWithCovarianceStamped()
+    pwc.pose.pose = convert.pose_msg(-1.0, 0.5, -3.0)
+    assert convert.to_xyyaw(pwc) == pytest.approx((-1.0, 0.5, -3.0))
+    ps = convert.pose_stamped(3.0, 4.0, 1.0, "map")
+    assert ps.header.frame_id == "map" and convert.to_xyyaw(ps) == pytest.approx((3.0, 4.0, 1.0))
+    t = convert.transform_stamped(None, "odom", "base_footprint", 0.2, -0.1, 0.3)
+    assert isinstance(t, TransformStamped) and (t.header.frame_id, t.child_frame_id) == ("odom", "base_footprint")
+    assert convert.to_xyyaw(t) == pytest.approx((0.2, -0.1, 0.3))
+
+
+def test_matrix_round_trip():
+    t = convert.transform_stamped(None, "a", "b", 1.0, 2.0, 0.4, z=0.5)
+    m = convert.to_matrix(t)
+    assert m[:3, 3] == pytest.approx([1.0, 2.0, 0.5])
+    back = convert.matrix_to_transform_msg(m)
+    assert convert.to_xyyaw(back) == pytest.approx((1.0, 2.0, 0.4))
+
+
+@pytest.mark.parametrize(("dtype", "encoding"), [(np.float32, "32FC1"), (np.uint16, "16UC1"), (np.uint8, "rgb8")])
+def test_images_round_trip_through_cv_bridge(dtype, encoding):
+    shape = (4, 5, 3) if encoding == "rgb8" else (4, 5)
+    array = (np.arange(np.prod(shape)) % 200).reshape(shape).astype(dtype)
+    header = Header(frame_id="camera_depth_optical_frame")
+    msg = convert.array_to_image(array, encoding, header)
+    assert (msg.width, msg.height, msg.encoding, msg.header.frame_id) == (5, 4, encoding, header.frame_id)
+    assert np.array_equal(convert.image_to_array(msg), array)
+
+
+def test_an_image_that_does_not_decode_is_a_value_error():
+    msg = convert.array_to_image(np.zeros((4, 5), np.float32), "32FC1")
+    msg.data = msg.data[:10]  # truncated
+    with pytest.raises(ValueError, match="32FC1"):
+        convert.image_to_array(msg)
