@@ -21,7 +21,7 @@ Writes bench/results/amcl.json and bench/results/amcl.png (estimated vs true pat
 
     /usr/bin/python3 bench/amcl.py --offline [--seeds 1,2,3] [--length 30] [--global-seeds 1,2]
 
-runs the same tour and global localizations without ROS (amcl.sim_offline: florence_sim's core and the
+runs the same tour and global localizations without ROS (florence_eval.amcl_offline: florence_sim's core and the
 amcl core in one process, the launch file's values, repeatable per seed) and writes
 bench/results/amcl_offline.json: per seed the position / yaw RMS after convergence and the mean error
 along and across the heading (the bias), per start the distance to converge, and the update time of step 3.
@@ -120,8 +120,8 @@ def plot(path, grid, truth, est, title):
 
 
 def offline(args):
-    """Tracking and global localization in-process (amcl.sim_offline); returns the result dict."""
-    from amcl.sim_offline import global_starts, launch_params, run_global, run_tracking
+    """Tracking and global localization in-process (florence_eval.amcl_offline); returns the result dict."""
+    from florence_eval.amcl_offline import global_starts, launch_params, run_global, run_tracking
 
     params = launch_params()
     tracking = {}
@@ -154,7 +154,7 @@ def main():
     parser.add_argument("--with-people", action="store_true", help="the apartment's two walking people")
     parser.add_argument("--global-max", type=float, default=15.0, help="longest drive per global localization [m]")
     parser.add_argument("--global-trials", type=int, default=3, help="global localization trials")
-    parser.add_argument("--offline", action="store_true", help="in-process evaluation without ROS (amcl.sim_offline)")
+    parser.add_argument("--offline", action="store_true", help="in-process evaluation without ROS (florence_eval.amcl_offline)")
     parser.add_argument("--seeds", default="1,2,3", help="--offline: simulator seeds of the tracking runs")
     parser.add_argument("--global-seeds", default="1,2", help="--offline: seeds of the global runs (8 starts each)")
     args = parser.parse_args()
@@ -172,7 +172,7 @@ def main():
     os.environ.update({k: v for k, v in master.env().items() if k.startswith("ROS_")})
     procs = []
     try:
-        from amcl.tour import APARTMENT_LOOP, APARTMENT_START, tour
+        from florence_eval.tour import APARTMENT_LOOP, APARTMENT_START, tour
         x, y, yaw = APARTMENT_START
         people = ROOT / "maps" / "apartment" / "people.yaml"
         if not args.with_people:
@@ -193,7 +193,7 @@ def main():
         procs.append(roslaunch(master, "turtlebot_control", "amcl_turtlebot_control.launch",
                                f"initial_pose_x:={x}", f"initial_pose_y:={y}", f"initial_pose_a:={yaw}"))
         rospy.init_node("bench", anonymous=False, disable_signals=True)
-        from amcl.sim_run import TourRecorder
+        from florence_eval.amcl_recorder import TourRecorder
 
         rec = TourRecorder()
         initial_pub = rospy.Publisher("initialpose", PoseWithCovarianceStamped, queue_size=1, latch=True)
@@ -210,7 +210,7 @@ def main():
         truth_t, truth, est_t, est, node_durations = rec.snapshot()
         memory = process_memory_kib(pid)
 
-        from amcl.tour import convergence_index, estimate_errors, rms, travelled
+        from florence_eval.tour import convergence_index, estimate_errors, rms, travelled
         pos_err, yaw_err = estimate_errors(est_t, est, truth_t, truth)
         start_idx = convergence_index(pos_err, yaw_err, 0.1, math.radians(5.0)) or 0
         dist = travelled(truth)

@@ -252,7 +252,7 @@ def main():
                       f"x:={START[0]}", f"y:={START[1]}", f"yaw:={START[2]}")
     try:
         import rospy
-        from move_base.sim_nav import NavSession
+        from florence_eval.nav_session import NavSession
         from nav_msgs.srv import GetPlan
 
         rospy.init_node("bench", anonymous=False, disable_signals=True)

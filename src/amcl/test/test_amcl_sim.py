@@ -52,8 +52,8 @@ def amcl_in_sim(rospy_node, ros_master, launch, tf_buffer, tmp_path):
 
 def test_amcl_follows_a_tour_and_resets(amcl_in_sim, tf_buffer):
     import rospy
-    from amcl.sim_run import TourRecorder
-    from amcl.tour import estimate_errors, rms
+    from florence_eval.amcl_recorder import TourRecorder
+    from florence_eval.tour import estimate_errors, rms
     from geometry_msgs.msg import PoseArray, PoseWithCovarianceStamped
     from std_srvs.srv import Empty
 

@@ -34,7 +34,7 @@ def hotspot(room):
 @pytest.fixture(scope="module")
 def nav(ros_master, rospy_node, tf_buffer, tmp_path_factory):
     import rosgraph
-    from move_base.sim_nav import NavSession
+    from florence_eval.nav_session import NavSession
 
     master = rosgraph.Master("/pytest")
     had_sim_time = master.hasParam("/use_sim_time")
@@ -79,7 +79,7 @@ def call_sim(name, srv_class, **fields):
 
 
 def test_rejects_bad_goals_with_a_reason(nav):
-    from move_base.sim_nav import make_goal
+    from florence_eval.nav_session import make_goal
 
     session, stack = nav
     cases = []

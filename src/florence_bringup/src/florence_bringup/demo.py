@@ -293,7 +293,7 @@ def run_scenario(rospy, obs, timeout):
 def run_navigation(rospy, timeout):
     """Scenario 2: move_base goals to room hotspots; returns (rows, checks)."""
     import yaml
-    from move_base.sim_nav import NavSession
+    from florence_eval.nav_session import NavSession
 
     from florence_harness import workspace
     from florence_sim.srv import RemovePerson

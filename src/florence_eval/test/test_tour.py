@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 import pytest
-from amcl.tour import (
+from florence_eval.tour import (
     APARTMENT_LOOP,
     APARTMENT_START,
     convergence_index,

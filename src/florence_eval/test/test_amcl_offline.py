@@ -1,11 +1,11 @@
-"""amcl against florence_sim's core in one process (amcl.sim_offline): the launch file's values on one lap of
+"""amcl against florence_sim's core in one process (florence_eval.amcl_offline): the launch file's values on one lap of
 the apartment tour, and the launch-file reader. Needs the built workspace (xacro finds turtlebot_control)."""
 
 import math
 
 import numpy as np
 import pytest
-from amcl.sim_offline import LAUNCH, global_starts, launch_params, make_config
+from florence_eval.amcl_offline import LAUNCH, global_starts, launch_params, make_config
 
 pytest.importorskip("florence_sim")
 pytest.importorskip("xacro")
@@ -37,7 +37,7 @@ def test_tracking_one_lap_with_the_launch_values():
     edges and scored endpoints inside walls like hits: a forward bias of about 3 cm along the heading and
     position RMS 4.1-5.0 cm on two laps (seeds 1-3). Measured after the fix: 3.5-4.3 cm, bias 2.4-2.6 cm,
     most of which is the simulated odometry's +1 % scale error."""
-    from amcl.sim_offline import run_tracking
+    from florence_eval.amcl_offline import run_tracking
 
     summary = run_tracking(launch_params(), length=18.0, sim_seed=1, amcl_seed=1).tracking_summary()
     assert summary["complete"] and summary["collisions"] == 0
@@ -75,7 +75,7 @@ def test_global_localization_converges_within_10_m(seed, start):
     model (alphas 0.2) these starts never converged in 15 m (bench/amcl.py --offline: 10/16 trials); the set
     shrank onto a wrong pose 1.3 m off (seed 1, start 6) while the particles near the true pose stayed 0.2-0.4 m
     away from it. Measured with diff-corrected 0.05: 1.5 m and 1.2 m."""
-    from amcl.sim_offline import run_global
+    from florence_eval.amcl_offline import run_global
 
     _, at = run_global(launch_params(), start, sim_seed=seed, amcl_seed=seed + 100, max_drive=12.0)
     assert at is not None and at <= 10.0, at

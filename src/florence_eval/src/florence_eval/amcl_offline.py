@@ -21,18 +21,20 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import rospkg
 import yaml
 
 from amcl.localizer import Localizer, config_from_params
 from amcl.motion import angle_diff
 from amcl.sensor import beams_in_base
-from amcl.tour import APARTMENT_LOOP, APARTMENT_START, convergence_index, follow, path_length, tour
+from florence_common.maps import map_file
+from florence_eval.tour import APARTMENT_LOOP, APARTMENT_START, convergence_index, follow, path_length, tour
 
-ROOT = Path(__file__).resolve().parents[4]  # the workspace (src/amcl/src/amcl/ -> 4 up)
-LAUNCH = ROOT / "src" / "turtlebot_control" / "config" / "amcl_turtlebot_control.launch"
-WORLD = ROOT / "maps" / "apartment" / "apartment.world.yaml"
-MAP_YAML = ROOT / "maps" / "apartment" / "apartment.yaml"
-XACRO = ROOT / "src" / "turtlebot_control" / "urdf" / "florence_turtlebot.urdf.xacro"
+TURTLEBOT_CONTROL = Path(rospkg.RosPack().get_path("turtlebot_control"))
+LAUNCH = TURTLEBOT_CONTROL / "config" / "amcl_turtlebot_control.launch"
+WORLD = map_file("apartment", "apartment.world.yaml")
+MAP_YAML = map_file("apartment", "apartment.yaml")
+XACRO = TURTLEBOT_CONTROL / "urdf" / "florence_turtlebot.urdf.xacro"
 
 
 def launch_params(path=LAUNCH, node="amcl", args=None):

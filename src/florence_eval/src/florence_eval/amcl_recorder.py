@@ -13,7 +13,7 @@ from geometry_msgs.msg import PoseWithCovarianceStamped, Twist
 from nav_msgs.msg import Odometry
 from std_msgs.msg import Float64
 
-from amcl.tour import follow
+from florence_eval.tour import follow
 
 
 def _yaw(q):
