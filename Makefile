@@ -37,7 +37,7 @@ build: setup
 	@echo "build: ok (log in build.log)"
 
 demo: build
-	$(SOURCE) && /usr/bin/python3 -m florence_bringup.demo --output $(WS)/demo_output
+	$(SOURCE) && /usr/bin/python3 -m florence_scenarios.demo --output $(WS)/demo_output
 
 lint: setup
 	ruff check $(WS)

@@ -2,4 +2,4 @@
 from catkin_pkg.python_setup import generate_distutils_setup
 from setuptools import setup
 
-setup(**generate_distutils_setup(packages=["florence_bringup"], package_dir={"": "src"}))
+setup(**generate_distutils_setup(packages=["florence_scenarios"], package_dir={"": "src"}))

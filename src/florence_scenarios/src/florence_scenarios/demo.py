@@ -19,7 +19,7 @@ It writes ``report.md``, ``frames.json`` and ``scenario.json``. With a display
 (``DISPLAY`` set) it opens rviz with the simulator's configuration first and runs in real
 time so it can be watched.
 
-Usage: python3 -m florence_bringup.demo [--output DIR] [--rviz auto|yes|no] [--timeout S]
+Usage: python3 -m florence_scenarios.demo [--output DIR] [--rviz auto|yes|no] [--timeout S]
                                         [--real-time-factor F]
 """
 
@@ -36,7 +36,7 @@ import xml.etree.ElementTree as ET
 
 from map_server.mapfile import atomic_write
 
-from florence_bringup.tf_report import FrameLink, check_conventions, render_tree
+from florence_scenarios.tf_report import FrameLink, check_conventions, render_tree
 from florence_common.processes import ManagedProcess, ProcessError, RosMaster, roslaunch, wait_for
 
 ROOT_FRAME = "base_footprint"

@@ -12,7 +12,7 @@ import pytest
 def test_demo_writes_report_from_live_tf(tmp_path):
     out = tmp_path / "demo"
     result = subprocess.run(
-        [sys.executable, "-m", "florence_bringup.demo", "--output", str(out), "--rviz", "no", "--timeout", "120"],
+        [sys.executable, "-m", "florence_scenarios.demo", "--output", str(out), "--rviz", "no", "--timeout", "120"],
         capture_output=True, text=True, timeout=600, check=False,
     )
     assert result.returncode == 0, result.stdout + result.stderr
@@ -48,7 +48,7 @@ def test_demo_stopped_by_sigterm_leaves_no_process(tmp_path):
     (bin_dir / "rviz").write_text("#!/bin/sh\nexec sleep 600\n")
     (bin_dir / "rviz").chmod(0o755)
     env = dict(os.environ, PATH=f"{bin_dir}:{os.environ['PATH']}")
-    demo = ManagedProcess([sys.executable, "-m", "florence_bringup.demo", "--output", str(tmp_path / "out"),
+    demo = ManagedProcess([sys.executable, "-m", "florence_scenarios.demo", "--output", str(tmp_path / "out"),
                            "--rviz", "yes", "--timeout", "120"], env=env, name="demo")
     children = []
     try:

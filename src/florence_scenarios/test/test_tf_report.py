@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 import pytest
-from florence_bringup.tf_report import FrameLink, check_conventions, pose_in, render_tree, rpy_from_quaternion
+from florence_scenarios.tf_report import FrameLink, check_conventions, pose_in, render_tree, rpy_from_quaternion
 
 IDENTITY = (0.0, 0.0, 0.0, 1.0)
 ROLL_PI = (1.0, 0.0, 0.0, 0.0)
