@@ -8,7 +8,8 @@ import sys
 import pytest
 
 
-@pytest.mark.ros
+@pytest.mark.scenario
+@pytest.mark.slow
 def test_demo_writes_report_from_live_tf(tmp_path):
     out = tmp_path / "demo"
     result = subprocess.run(
@@ -17,24 +18,26 @@ def test_demo_writes_report_from_live_tf(tmp_path):
     )
     assert result.returncode == 0, result.stdout + result.stderr
     report = (out / "report.md").read_text()
-    assert "frame conventions: all passed" in report
+    assert "Frame conventions (live tf): all passed" in report
     data = json.loads((out / "frames.json").read_text())
     assert data["frames"]["base_laser_link"]["parent"] == "plate_1_link"
     assert len(data["frames"]) >= 30
     assert not list(out.glob("*.tmp")), "temporary files left behind"
-    assert "scenario: all passed" in report
+    assert "Scenario checks: all passed" in report and "Navigation checks: all passed" in report
     scenario = json.loads((out / "scenario.json").read_text())
     assert scenario["summary"]["collisions_in_scenario"] == 1
-    assert 5.55 < scenario["steps"][3]["truth"][1] < 6.75, "the robot reached the corridor"
+    assert 5.55 < scenario["steps"]["corridor"]["truth"][1] < 6.75, "the robot reached the corridor"
     assert scenario["summary"]["rates_hz_sim_time"]["/scan"] == pytest.approx(10.0, rel=0.25)
-    assert all(ok for _, ok, _ in scenario["checks"])
+    checks = scenario["checks"]
+    assert checks["Scenario checks"]["one collision, bumper pressed"]["passed"]
+    assert checks["Navigation checks"]["no collision while navigating"]["passed"]
+    assert all(c["passed"] for section in checks.values() for c in section.values()), checks
     goals = scenario["navigation"]["goals"]
-    assert [g["goal"] for g in goals] == ["kitchen", "bedroom", "living_room"]
-    assert all(g["state"] == "SUCCEEDED" and g["error_m"] < 0.35 for g in goals), goals
-    assert all(ok for _, ok, _ in scenario["navigation"]["checks"])
+    assert list(goals) == ["kitchen", "bedroom", "living_room"]
+    assert all(g["state"] == "SUCCEEDED" and g["error_m"] < 0.35 for g in goals.values()), goals
 
 
-@pytest.mark.ros
+@pytest.mark.scenario
 def test_demo_stopped_by_sigterm_leaves_no_process(tmp_path):
     """A demo ended by SIGTERM (CI timeout, `timeout`, a supervisor) stops its master and launch."""
     import os

@@ -4,7 +4,11 @@ import math
 
 import numpy as np
 import pytest
-from florence_scenarios.tf_report import FrameLink, check_conventions, pose_in, render_tree, rpy_from_quaternion
+from florence_scenarios.tf_report import FrameLink, check_conventions, pose_in, render_tree
+
+from florence_common.pose import quaternion_to_rpy
+
+pytestmark = pytest.mark.unit
 
 IDENTITY = (0.0, 0.0, 0.0, 1.0)
 ROLL_PI = (1.0, 0.0, 0.0, 0.0)
@@ -35,8 +39,8 @@ def robot(laser_rotation=ROLL_PI):
         (OPTICAL, (-math.pi / 2, 0.0, -math.pi / 2)),
     ],
 )
-def test_rpy_from_quaternion(q, rpy):
-    assert rpy_from_quaternion(q) == pytest.approx(rpy, abs=1e-9)
+def test_rpy_of_the_robot_frames(q, rpy):
+    assert quaternion_to_rpy(q) == pytest.approx(rpy, abs=1e-9)
 
 
 def test_pose_chains_translations_through_rotations():
@@ -52,14 +56,13 @@ def test_pose_of_unrelated_frame_raises():
 
 
 def test_conventions_pass_for_the_florence_robot():
-    rows = check_conventions(robot())
-    assert rows and all(ok for _, ok, _ in rows), rows
+    checks = check_conventions(robot())
+    assert len(checks) == 4 and checks.passed, checks.markdown()
 
 
 def test_conventions_catch_an_upright_laser():
-    rows = dict((name, ok) for name, ok, _ in check_conventions(robot(laser_rotation=IDENTITY)))
-    assert rows["laser upside down"] is False
-    assert rows["laser window below the laser body"] is False
+    checks = check_conventions(robot(laser_rotation=IDENTITY))
+    assert checks.failed() == ["laser upside down", "laser window below the laser body"]
 
 
 def test_render_tree_lists_every_frame_with_height():

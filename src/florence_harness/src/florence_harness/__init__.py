@@ -1,5 +1,4 @@
-"""florence_harness.
+"""florence_harness: the pytest fixtures of the workspace's ROS tests and facts about the workspace.
 
-Process harness for tests, the demo and benchmarks: private rosmaster on a free port,
-roslaunch runs in their own process group, condition waits.
+Tests only; runtime code uses florence_common.processes.
 """

@@ -7,7 +7,9 @@ translation [m] and quaternion (x, y, z, w) of the child in the parent).
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial.transform import Rotation
+
+from florence_common.pose import quaternion_to_rpy, transform_matrix
+from florence_scenarios.checks import Checks
 
 
 @dataclass(frozen=True)
@@ -15,11 +17,6 @@ class FrameLink:
     parent: str
     translation: tuple  # (x, y, z) [m] of the child's origin in the parent frame
     rotation: tuple  # (x, y, z, w) unit quaternion of the child's axes in the parent frame
-
-
-def rpy_from_quaternion(q):
-    """(roll, pitch, yaw) [rad], fixed-axis XYZ as in URDF, of ``q = (x, y, z, w)``."""
-    return tuple(float(a) for a in Rotation.from_quat(q).as_euler("xyz"))
 
 
 def pose_in(frames, root, frame):
@@ -35,10 +32,7 @@ def pose_in(frames, root, frame):
         current = link.parent
     pose = np.eye(4)
     for link in reversed(chain):
-        step = np.eye(4)
-        step[:3, :3] = Rotation.from_quat(link.rotation).as_matrix()
-        step[:3, 3] = link.translation
-        pose = pose @ step
+        pose = pose @ transform_matrix(link.translation, link.rotation)
     return pose
 
 
@@ -53,7 +47,7 @@ def render_tree(frames, root):
     def walk(parent, depth):
         for child in sorted(children.get(parent, [])):
             link = frames[child]
-            roll, pitch, yaw = rpy_from_quaternion(link.rotation)
+            roll, pitch, yaw = quaternion_to_rpy(link.rotation)
             height = pose_in(frames, root, child)[2, 3]
             x, y, z = link.translation
             lines.append(
@@ -67,8 +61,8 @@ def render_tree(frames, root):
 
 
 def check_conventions(frames, base="base_link"):
-    """The frame conventions the Florence nodes rely on, as (name, passed, detail) rows."""
-    rows = []
+    """The frame conventions the Florence nodes rely on (:class:`Checks`)."""
+    rows = Checks()
 
     def axis_in_base(frame, axis):
         return pose_in(frames, base, frame)[:3, :3] @ np.asarray(axis, dtype=float)
@@ -77,17 +71,17 @@ def check_conventions(frames, base="base_link"):
         z = axis_in_base("base_laser_link", (0, 0, 1))
         y = axis_in_base("base_laser_link", (0, 1, 0))
         upside_down = bool(z[2] < -0.999 and y[1] < -0.999)
-        rows.append(("laser upside down", upside_down, f"laser z axis in {base} = {np.round(z, 4).tolist()}"))
+        rows.add("laser upside down", upside_down, f"laser z axis in {base} = {np.round(z, 4).tolist()}")
         window_z = pose_in(frames, base, "base_laser_round_link")[2, 3]
         below = bool(window_z < pose_in(frames, base, "base_laser_link")[2, 3])
-        rows.append(("laser window below the laser body", below, "base_laser_round_link lower than base_laser_link"))
+        rows.add("laser window below the laser body", below, "base_laser_round_link lower than base_laser_link")
     except KeyError as exc:
-        rows.append(("laser frames present", False, f"missing {exc}"))
+        rows.add("laser frames present", False, f"missing {exc}")
     for optical in ("camera_depth_optical_frame", "camera_rgb_optical_frame"):
         try:
             z = axis_in_base(optical, (0, 0, 1))
             detail = f"optical z axis in {base} = {np.round(z, 4).tolist()}"
-            rows.append((f"{optical} looks forward", bool(z[0] > 0.99), detail))
+            rows.add(f"{optical} looks forward", bool(z[0] > 0.99), detail)
         except KeyError as exc:
-            rows.append((f"{optical} present", False, f"missing {exc}"))
+            rows.add(f"{optical} present", False, f"missing {exc}")
     return rows
