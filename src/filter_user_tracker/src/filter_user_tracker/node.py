@@ -1,0 +1,74 @@
+"""filter_user_tracker_node: /tracked_users to /filtered_tracked_users without stale entries
+(seed 4.2, Table 15).
+
+ROS Parameters: PARAMS below (rendered in the README).
+
+ROS Subscribers:
+    tracked_users (user_tracker_ni/TrackedUsers)
+
+ROS Publishers:
+    filtered_tracked_users (user_tracker_ni/TrackedUsers): the same message without the users
+        nearer the camera than ~zero_radius and those no sensor saw for ~stale_after; every
+        per-user field is filtered alike. A message whose users cannot be placed (no transform
+        to the camera) is passed on without the distance rule, with a throttled warning.
+"""
+
+import rospy
+import tf2_ros
+
+from filter_user_tracker.stale import keep_mask
+from florence_common.params import FRAME, Param, ParamTable
+from florence_common_ros.convert import to_matrix
+from florence_common_ros.node import read_params, run
+from user_tracker_ni.msg import TrackedUsers
+
+LOG = "filter_user_tracker: "
+PARAMS = ParamTable(
+    Param("zero_radius", float, 0.5, "users nearer the camera than this are dropped (the seed's ZERO_RADIUS: "
+          "the Kinect sees nothing nearer)", unit="m", ge=0),
+    Param("stale_after", float, 0.5, "users no sensor saw for this long are dropped", unit="s", gt=0),
+    Param("camera_frame", FRAME, "camera_depth_frame", "the frame distances are measured from"),
+)
+PER_USER = ("user_ids", "user_ids_ni", "positions", "velocities", "last_seen", "sensors")
+
+
+class FilterUserTrackerNode:
+    def __init__(self):
+        self.p = read_params(PARAMS)
+        self.tf_buffer = tf2_ros.Buffer(cache_time=rospy.Duration(5.0))
+        self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
+        self.pub = rospy.Publisher("filtered_tracked_users", TrackedUsers, queue_size=5)
+        rospy.Subscriber("tracked_users", TrackedUsers, self._on_users, queue_size=5)
+
+    def _camera_xy(self, msg):
+        try:
+            t = self.tf_buffer.lookup_transform(msg.frame_id, self.p.camera_frame, msg.stamp, rospy.Duration(0.1))
+        except (tf2_ros.LookupException, tf2_ros.ConnectivityException, tf2_ros.ExtrapolationException) as exc:
+            rospy.logwarn_throttle(5.0, LOG + "no transform %s -> %s (%s): distance rule skipped",
+                                   self.p.camera_frame, msg.frame_id or "''", exc)
+            return None
+        return to_matrix(t)[:2, 3]
+
+    def _on_users(self, msg):
+        n = len(msg.user_ids)
+        if any(len(getattr(msg, f)) not in (0, n) for f in PER_USER):
+            rospy.logwarn_throttle(5.0, LOG + "message with per-user fields of different lengths passed on as is")
+            self.pub.publish(msg)
+            return
+        if len(msg.positions) != n:  # a tracker of the seed's three fields: nothing to judge by
+            self.pub.publish(msg)
+            return
+        positions = [(p.x, p.y) for p in msg.positions]
+        last_seen = [t.to_sec() for t in msg.last_seen] if len(msg.last_seen) == n else [msg.stamp.to_sec()] * n
+        camera = self._camera_xy(msg) if n else None
+        keep = keep_mask(positions, last_seen, camera, msg.stamp.to_sec(), self.p.zero_radius, self.p.stale_after)
+        out = TrackedUsers(stamp=msg.stamp, frame_id=msg.frame_id)
+        for field in PER_USER:
+            values = getattr(msg, field)
+            setattr(out, field, [v for v, k in zip(values, keep, strict=True) if k] if len(values) == n else [])
+        out.num_users_tracked = len(out.user_ids)
+        self.pub.publish(out)
+
+
+def main():
+    run(FilterUserTrackerNode, "filter_user_tracker_node")

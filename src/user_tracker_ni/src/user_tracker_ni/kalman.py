@@ -1,0 +1,66 @@
+"""Constant-velocity Kalman filter of one person on the floor plane (no ROS).
+
+State ``[x, y, vx, vy]`` ([m], [m/s]) in the fixed frame; measurements are positions
+``[x, y]`` [m] with a per-sensor standard deviation. The process noise is white
+acceleration of spectral density ``q`` [m^2/s^3] (a walking person: q about 1).
+"""
+
+import numpy as np
+
+H = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0]])
+
+
+class ConstantVelocity:
+    def __init__(self, x, y, t, pos_std=0.1, vel_std=1.0, q=1.0):
+        self.x = np.array([x, y, 0.0, 0.0])
+        self.P = np.diag([pos_std**2, pos_std**2, vel_std**2, vel_std**2])
+        self.t = float(t)
+        self.q = float(q)
+
+    @staticmethod
+    def transition(dt, q):
+        """(F, Q) of a step of ``dt`` [s]."""
+        F = np.eye(4)
+        F[0, 2] = F[1, 3] = dt
+        dt2, dt3 = dt * dt, dt * dt * dt
+        Q = q * np.array([[dt3 / 3, 0, dt2 / 2, 0], [0, dt3 / 3, 0, dt2 / 2],
+                          [dt2 / 2, 0, dt, 0], [0, dt2 / 2, 0, dt]])
+        return F, Q
+
+    def predicted(self, t):
+        """(state, covariance) at time ``t`` without changing the filter (t before now: now)."""
+        dt = max(0.0, float(t) - self.t)
+        if dt == 0.0:
+            return self.x.copy(), self.P.copy()
+        F, Q = self.transition(dt, self.q)
+        return F @ self.x, F @ self.P @ F.T + Q
+
+    def predict(self, t):
+        self.x, self.P = self.predicted(t)
+        self.t = max(self.t, float(t))
+
+    def innovation(self, z, std, t=None):
+        """(residual [2], covariance S [2x2]) of measurement ``z`` with noise ``std`` [m] at ``t``."""
+        x, P = self.predicted(self.t if t is None else t)
+        S = P[:2, :2] + np.eye(2) * std * std
+        return np.asarray(z, dtype=float) - x[:2], S
+
+    def update(self, z, std):
+        """Fuse position ``z`` (x, y) [m] measured with standard deviation ``std`` [m] (after predict)."""
+        y, S = self.innovation(z, std)
+        K = self.P @ H.T @ np.linalg.inv(S)
+        self.x = self.x + K @ y
+        self.P = (np.eye(4) - K @ H) @ self.P
+
+    @property
+    def position(self):
+        return float(self.x[0]), float(self.x[1])
+
+    @property
+    def velocity(self):
+        return float(self.x[2]), float(self.x[3])
+
+    @property
+    def position_std(self):
+        """Largest standard deviation [m] of the position estimate."""
+        return float(np.sqrt(np.max(np.linalg.eigvalsh(self.P[:2, :2]))))

@@ -1,0 +1,310 @@
+"""user_tracker_ni_node: people from the Kinect and the laser, tracked with persistent ids
+(seed 3.9, 4.1.2, 4.2; node name as in the seed so its services are /user_tracker_ni_node/Start
+and /user_tracker_ni_node/Stop).
+
+ROS Parameters: PARAMS of user_tracker_ni.params (rendered in the README).
+
+ROS Subscribers:
+    camera/depth/image (sensor_msgs/Image, 32FC1 [m] or 16UC1 [mm]): the depth image.
+    camera/depth/camera_info (sensor_msgs/CameraInfo): its intrinsics.
+    camera/rgb/image_color (sensor_msgs/Image, rgb8 or bgr8): the colour image registered to the
+        depth image (resized to it when its size differs), for the colour signatures.
+    scan (sensor_msgs/LaserScan): the Hokuyo (upside down: placed through tf).
+
+ROS Publishers:
+    tracked_users (user_tracker_ni/TrackedUsers): the confirmed users after every depth frame (the
+        camera rate); after every scan instead while no depth frame came for
+        ~publish_on_scans_after. While stopped: an empty message at the same rate.
+    ~markers (visualization_msgs/MarkerArray): a cylinder and a label "id (ni id)" per user.
+    /tf: user_<user_id> per user, child of ~fixed_frame (with ~publish_tf).
+    /diagnostics: input rates, processing time, tracks, why detections were dropped.
+
+ROS Services:
+    ~Start (user_tracker_ni/Start): track from now on, afresh (harmless while tracking).
+    ~Stop (user_tracker_ni/Stop): stop, forget every track and detection (persistent ids and
+        their colours are kept); harmless while stopped.
+
+Bad input (NaN or empty depth images, a camera_info that does not match the image, missing tf,
+colour without depth, NaN/inf in scans) is skipped with a throttled warning that says why; no
+callback raises.
+"""
+
+import threading
+import time
+from collections import Counter, deque
+
+import numpy as np
+import rospy
+import tf2_ros
+from geometry_msgs.msg import Point, Vector3
+from sensor_msgs.msg import CameraInfo, Image, LaserScan
+from visualization_msgs.msg import Marker, MarkerArray
+
+from florence_common_ros.convert import image_to_array, to_matrix, transform_stamped
+from florence_common_ros.diagnostics import ERROR, OK, WARN, Diagnostics
+from florence_common_ros.node import read_params, run
+from user_tracker_ni import depth_people, laser_legs
+from user_tracker_ni.msg import TrackedUsers
+from user_tracker_ni.params import PARAMS, split
+from user_tracker_ni.srv import Start, StartResponse, Stop, StopResponse
+from user_tracker_ni.tracker import KINECT, LASER, Detection, Tracker
+
+LOG = "user_tracker_ni: "
+KINECT_STD, LASER_STD = 0.08, 0.05  # [m] position noise of a detection of each sensor
+RECENT = 0.5  # [s] a sensor "saw" a user when it did within this long (the sensors field)
+COLOURS = [(0.9, 0.2, 0.2), (0.2, 0.5, 0.9), (0.2, 0.8, 0.3), (0.9, 0.7, 0.1), (0.7, 0.3, 0.9), (0.1, 0.8, 0.8)]
+
+
+def depth_metres(msg):
+    """float32 metres (NaN for no return) of a 32FC1 (m) or 16UC1 (mm) depth image; ValueError
+    for another encoding."""
+    if msg.encoding == "32FC1":
+        d = image_to_array(msg).astype(np.float32, copy=True)
+        d[~np.isfinite(d) | (d <= 0)] = np.nan
+        return d
+    if msg.encoding in ("16UC1", "mono16"):
+        mm = image_to_array(msg)
+        return np.where(mm > 0, mm.astype(np.float32) / 1000.0, np.nan).astype(np.float32)
+    raise ValueError(f"depth encoding {msg.encoding!r} (want 32FC1 or 16UC1)")
+
+
+def colour_rgb(msg):
+    """uint8 RGB array of an rgb8 / bgr8 image."""
+    return image_to_array(msg, "rgb8")
+
+
+class UserTrackerNode:
+    def __init__(self):
+        self.values, self.depth_params, self.leg_params, self.tracker_params = split(read_params(PARAMS))
+        v = self.values
+        self.fixed, self.base = v["fixed_frame"], v["base_frame"]
+        self.lock = threading.Lock()
+        self.tracker = Tracker(self.tracker_params)
+        self.tracking = bool(v["start_tracking"])
+        self.camera = None  # depth_people.Camera of the latest camera_info
+        self.camera_key = None
+        self.colour = None  # (stamp [s], RGB array) of the latest colour image
+        self.last_depth = None  # wall time of the last depth frame processed
+        self.stats = Counter()
+        self.rejected = Counter()
+        self.times = deque(maxlen=200)  # [s] processing time of recent depth frames
+        self.warnings = {}
+
+        self.tf_buffer = tf2_ros.Buffer(cache_time=rospy.Duration(10.0))
+        self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
+        self.tf_out = tf2_ros.TransformBroadcaster() if v["publish_tf"] else None
+        self.pub = rospy.Publisher("tracked_users", TrackedUsers, queue_size=5)
+        self.markers = rospy.Publisher("~markers", MarkerArray, queue_size=2)
+        self.diag = Diagnostics("user_tracker_ni")
+        self.depth_rate = self.diag.frequency("Depth frames", 5.0, 60.0)
+        self.scan_rate = self.diag.frequency("Scans", 5.0, 40.0)
+        self.diag.add("Tracking", self._diagnose)
+        rospy.Service("~Start", Start, self._start)
+        rospy.Service("~Stop", Stop, self._stop)
+        rospy.Subscriber("camera/depth/camera_info", CameraInfo, self._on_info, queue_size=1)
+        rospy.Subscriber("camera/rgb/image_color", Image, self._on_colour, queue_size=1, buff_size=2**24)
+        rospy.Subscriber("camera/depth/image", Image, self._on_depth, queue_size=1, buff_size=2**24)
+        rospy.Subscriber("scan", LaserScan, self._on_scan, queue_size=1)
+        rospy.loginfo(LOG + "tracking in %s%s", self.fixed, "" if self.tracking else " once ~Start is called")
+
+    # --- services --------------------------------------------------------------------------------
+    def _start(self, _req):
+        with self.lock:
+            was = self.tracking
+            self.tracker.reset()
+            self.tracking = True
+        rospy.loginfo(LOG + "Start: tracking afresh%s", " (was tracking)" if was else "")
+        return StartResponse(True, "tracking afresh" if not was else "was tracking: restarted afresh")
+
+    def _stop(self, _req):
+        with self.lock:
+            was = self.tracking
+            self.tracking = False
+            self.tracker.reset()
+            self.colour = None
+        self._publish(rospy.Time.now())
+        self._clear_markers()
+        rospy.loginfo(LOG + "Stop: every track forgotten%s", "" if was else " (was stopped)")
+        return StopResponse(True, "stopped, tracks forgotten" if was else "was stopped already")
+
+    # --- inputs ------------------------------------------------------------------------------------
+    def _warn(self, key, text, *args):
+        self.warnings[key] = text % args if args else text
+        rospy.logwarn_throttle(5.0, LOG + text, *args)
+
+    def _on_info(self, msg):
+        key = (tuple(msg.K), msg.width, msg.height)
+        if key == self.camera_key:
+            return
+        try:
+            self.camera = depth_people.Camera(msg.K, msg.width, msg.height)
+            self.camera_key = key
+        except ValueError as exc:
+            self._warn("camera_info", "camera_info ignored: %s", exc)
+
+    def _on_colour(self, msg):
+        try:
+            self.colour = (msg.header.stamp.to_sec(), colour_rgb(msg))
+        except ValueError as exc:
+            self._warn("colour", "colour image skipped: %s", exc)
+
+    def _transform(self, target, source, stamp):
+        """4x4 pose of ``source`` in ``target`` at ``stamp``, or None (with a warning naming why)."""
+        try:
+            t = self.tf_buffer.lookup_transform(target, source, stamp, rospy.Duration(self.values["tf_timeout"]))
+            return to_matrix(t)
+        except (tf2_ros.LookupException, tf2_ros.ConnectivityException, tf2_ros.ExtrapolationException) as exc:
+            self._warn("tf", "reading skipped, no transform %s -> %s: %s", source, target, exc)
+            return None
+
+    def _poses(self, frame, stamp):
+        """(sensor in base, base in fixed) 4x4 at ``stamp``, or None."""
+        sensor = self._transform(self.base, frame, stamp)
+        if sensor is None:
+            return None
+        base = self._transform(self.fixed, self.base, stamp)
+        return None if base is None else (sensor, base)
+
+    def _on_depth(self, msg):
+        self.depth_rate.tick()
+        if not self.tracking:
+            self._publish(msg.header.stamp)
+            return
+        started = time.perf_counter()
+        try:
+            detections = self._depth_detections(msg)
+        except ValueError as exc:
+            self._warn("depth", "depth frame skipped: %s", exc)
+            return
+        if detections is None:
+            return
+        with self.lock:
+            if self.tracking:
+                self.tracker.update(msg.header.stamp.to_sec(), detections, KINECT)
+        self.last_depth = time.monotonic()
+        self.times.append(time.perf_counter() - started)
+        self.stats["depth frames"] += 1
+        self._publish(msg.header.stamp)
+
+    def _depth_detections(self, msg):
+        if self.camera is None:
+            self._warn("camera_info", "depth frame skipped: no camera_info received yet")
+            return None
+        depth = depth_metres(msg)
+        if depth.shape != (self.camera.height, self.camera.width):
+            raise ValueError(f"image {depth.shape[1]}x{depth.shape[0]} does not match camera_info "
+                             f"{self.camera.width}x{self.camera.height}")
+        poses = self._poses(msg.header.frame_id, msg.header.stamp)
+        if poses is None:
+            return None
+        camera_pose, base_pose = poses
+        colour = self.colour
+        rgb = colour[1] if colour is not None and abs(colour[0] - msg.header.stamp.to_sec()) < 0.1 else None
+        people, rejected = depth_people.detect(depth, self.camera, camera_pose, self.depth_params, rgb)
+        self.rejected.update(rejected)
+        out = []
+        for p in people:
+            x, y = base_pose[:2, :2] @ (p.x, p.y) + base_pose[:2, 3]
+            out.append(Detection(float(x), float(y), KINECT, KINECT_STD, p.signature))
+        return out
+
+    def _on_scan(self, msg):
+        self.scan_rate.tick()
+        if not self.tracking:
+            return
+        poses = self._poses(msg.header.frame_id, msg.header.stamp)
+        if poses is None:
+            return
+        laser_pose, base_pose = poses
+        try:
+            _, people = laser_legs.detect(msg.ranges, msg.angle_min, msg.angle_increment, msg.range_min,
+                                          msg.range_max, base_pose @ laser_pose, self.leg_params)
+        except ValueError as exc:
+            self._warn("scan", "scan skipped: %s", exc)
+            return
+        dets = [Detection(float(x), float(y), LASER, LASER_STD) for x, y in people]
+        with self.lock:
+            if self.tracking:
+                self.tracker.update(msg.header.stamp.to_sec(), dets, LASER)
+        self.stats["scans"] += 1
+        if self.last_depth is None or time.monotonic() - self.last_depth > self.values["publish_on_scans_after"]:
+            self._publish(msg.header.stamp)
+
+    # --- outputs ----------------------------------------------------------------------------------------
+    def _publish(self, stamp):
+        msg = TrackedUsers(stamp=stamp, frame_id=self.fixed)
+        with self.lock:
+            tracks = self.tracker.published() if self.tracking else []
+            now = stamp.to_sec()
+            for tr in tracks:
+                x, y = tr.position
+                vx, vy = tr.velocity
+                msg.user_ids.append(tr.pid)
+                msg.user_ids_ni.append(tr.ni_id)
+                msg.positions.append(Point(x, y, 0.85))
+                msg.velocities.append(Vector3(vx, vy, 0.0))
+                seen = max(t for t in (tr.last_kinect, tr.last_laser) if t is not None)
+                msg.last_seen.append(rospy.Time.from_sec(seen))
+                msg.sensors.append((1 if tr.last_kinect is not None and now - tr.last_kinect <= RECENT else 0)
+                                   | (2 if tr.last_laser is not None and now - tr.last_laser <= RECENT else 0))
+        msg.num_users_tracked = len(msg.user_ids)
+        self.pub.publish(msg)
+        if self.tf_out is not None and msg.user_ids:
+            self.tf_out.sendTransform([transform_stamped(stamp, self.fixed, f"{self.values['frame_prefix']}{pid}",
+                                                         p.x, p.y, 0.0, z=p.z)
+                                       for pid, p in zip(msg.user_ids, msg.positions, strict=True)])
+        self._publish_markers(msg)
+
+    def _publish_markers(self, msg):
+        out = MarkerArray()
+        for pid, ni, p in zip(msg.user_ids, msg.user_ids_ni, msg.positions, strict=True):
+            colour = COLOURS[pid % len(COLOURS)]
+            body = Marker(type=Marker.CYLINDER, action=Marker.ADD, ns="users", id=pid)
+            body.header.frame_id, body.header.stamp = msg.frame_id, msg.stamp
+            body.pose.position = Point(p.x, p.y, 0.85)
+            body.pose.orientation.w = 1.0
+            body.scale = Vector3(0.4, 0.4, 1.7)
+            body.color.r, body.color.g, body.color.b, body.color.a = (*colour, 0.5)
+            body.lifetime = rospy.Duration(0.5)
+            label = Marker(type=Marker.TEXT_VIEW_FACING, action=Marker.ADD, ns="labels", id=pid, text=f"{pid} ({ni})")
+            label.header = body.header
+            label.pose.position = Point(p.x, p.y, 1.9)
+            label.pose.orientation.w = 1.0
+            label.scale.z = 0.25
+            label.color.r = label.color.g = label.color.b = label.color.a = 1.0
+            label.lifetime = rospy.Duration(0.5)
+            out.markers += [body, label]
+        if out.markers:
+            self.markers.publish(out)
+
+    def _clear_markers(self):
+        self.markers.publish(MarkerArray(markers=[Marker(action=Marker.DELETEALL)]))
+
+    def _diagnose(self, stat):
+        with self.lock:
+            tracks = self.tracker.published()
+            tentative = len(self.tracker.tracks) - len(tracks)
+        if not self.tracking:
+            stat.summary(OK, "stopped (~Start to track)")
+        elif self.camera is None:
+            stat.summary(ERROR, "no camera_info: no depth frame can be used")
+        elif self.warnings:
+            stat.summary(WARN, "; ".join(sorted(self.warnings.values()))[:200])
+        else:
+            stat.summary(OK, f"tracking {len(tracks)} user(s)")
+        self.warnings = {}
+        times = sorted(self.times)
+        stat.add("users", len(tracks))
+        stat.add("tentative tracks", tentative)
+        stat.add("user ids", " ".join(f"{tr.pid}({tr.ni_id})" for tr in tracks))
+        stat.add("depth frame p50 (ms)", f"{1000 * times[len(times) // 2]:.1f}" if times else "")
+        stat.add("depth frame p99 (ms)", f"{1000 * times[int(0.99 * (len(times) - 1))]:.1f}" if times else "")
+        for key, value in sorted(self.stats.items()):
+            stat.add(key, value)
+        for reason, count in sorted(self.rejected.items()):
+            stat.add(f"clusters rejected: {reason}", count)
+        return stat
+
+
+def main():
+    run(UserTrackerNode, "user_tracker_ni_node")

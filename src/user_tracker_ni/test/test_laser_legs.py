@@ -1,0 +1,98 @@
+"""Leg detection on synthetic scans: two legs, a wall, a person by a wall, table legs, the
+inverted laser, NaN and inf."""
+
+import math
+
+import numpy as np
+import pytest
+from user_tracker_ni.laser_legs import LegParams, detect, find_legs, pair_legs, scan_points
+
+from florence_common import pose
+
+pytestmark = pytest.mark.unit
+
+N = 683  # URG-04LX: -120..120 deg at 1024 steps a turn
+INC = 2 * math.pi / 1024
+AMIN = -(N - 1) / 2 * INC
+P = LegParams().validate()
+IDENTITY = np.eye(4)
+
+
+def render(circles, walls=(), max_range=5.6):
+    """Ranges of a laser at the origin (x forward) seeing circles (x, y, r) and walls x = c."""
+    a = AMIN + INC * np.arange(N)
+    d = np.stack([np.cos(a), np.sin(a)], 1)
+    best = np.full(N, np.inf)
+    for cx, cy, r in circles:
+        b = d @ np.array([cx, cy])
+        disc = b * b - (cx * cx + cy * cy - r * r)
+        t = b - np.sqrt(np.where(disc >= 0, disc, np.nan))
+        best = np.fmin(best, np.where((disc >= 0) & (t > 0), t, np.inf))
+    for wx in walls:
+        with np.errstate(divide="ignore"):
+            t = np.where(d[:, 0] > 1e-6, wx / d[:, 0], np.inf)
+        best = np.fmin(best, t)
+    return np.where(best <= max_range, best, np.inf)
+
+
+def run(ranges, laser_pose=IDENTITY):
+    return detect(ranges, AMIN, INC, 0.02, 5.6, laser_pose, P)
+
+
+def test_two_legs_make_one_person_between_them():
+    legs, people = run(render([(2.0, 0.10, 0.065), (2.0, -0.10, 0.065)]))
+    assert len(legs) == 2 and len(people) == 1
+    assert people[0] == pytest.approx((2.0, 0.0), abs=0.02)  # the legs' centres, not their near sides
+
+
+def test_two_people_side_by_side():
+    _, people = run(render([(2.0, 0.6, 0.06), (2.0, 0.4, 0.06), (2.0, -0.4, 0.06), (2.0, -0.6, 0.06)]))
+    assert sorted(np.round(people[:, 1], 1)) == pytest.approx([-0.5, 0.5], abs=0.06)
+
+
+def test_a_wall_and_wide_objects_are_not_legs():
+    legs, people = run(render([(2.0, 1.0, 0.25)], walls=[3.0]))  # a 0.5 m pot and a wall
+    assert len(legs) == 0 and len(people) == 0
+
+
+def test_a_person_in_front_of_a_wall_is_seen():
+    _, people = run(render([(2.0, 0.1, 0.065), (2.0, -0.1, 0.065)], walls=[2.6]))
+    assert len(people) == 1
+
+
+def test_a_leg_touching_the_wall_is_not_seen():
+    """Standing against the wall, a leg does not stand out from it: missed (the Kinect's job)."""
+    legs, _ = run(render([(2.5, 0.0, 0.065)], walls=[2.56]))
+    assert len(legs) == 0
+
+
+def test_the_inverted_laser_through_its_pose():
+    """Rolled by pi (the Florence mount): the scan runs clockwise; the pose puts points right."""
+    inverted = pose.transform_matrix((0.06, 0.0, 0.15), (1.0, 0.0, 0.0, 0.0))
+    ranges = render([(2.0, 0.6, 0.065), (2.0, 0.4, 0.065)])[::-1]  # what an upside-down laser reports
+    _, people = run(ranges, inverted)
+    assert people[0] == pytest.approx((2.06, 0.5), abs=0.02)  # on the robot's left, where they stand
+
+
+def test_nan_inf_and_empty_scans():
+    ranges = render([(2.0, 0.1, 0.065), (2.0, -0.1, 0.065)])
+    ranges[::7] = np.nan
+    ranges[3::11] = np.inf
+    _, people = run(ranges)
+    assert len(people) == 1
+    assert [len(x) for x in run(np.full(N, np.nan))] == [0, 0]
+    assert [len(x) for x in detect([], AMIN, INC, 0.02, 5.6, IDENTITY, P)] == [0, 0]
+
+
+def test_pairing_is_a_matching():
+    legs = np.array([[0.0, 0.0], [0.3, 0.0], [0.6, 0.0], [3.0, 3.0]])
+    people = pair_legs(legs, P)
+    assert len(people) == 3  # (0, 0.3) paired, 0.6 and (3, 3) alone; no leg counted twice
+    assert people[0] == pytest.approx((0.15, 0.0))
+
+
+def test_scan_points_places_returns():
+    xy, valid = scan_points([1.0, np.nan, 2.0], 0.0, math.pi / 2, 0.02, 5.6, IDENTITY)
+    assert valid.tolist() == [True, False, True]
+    assert xy[0] == pytest.approx((1.0, 0.0)) and xy[2] == pytest.approx((-2.0, 0.0), abs=1e-9)
+    assert len(find_legs(xy, valid, (0.0, 0.0), P)) == 0

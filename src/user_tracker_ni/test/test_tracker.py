@@ -1,0 +1,147 @@
+"""The tracker on synthetic detection streams: crossing paths, occlusion, leaving and
+re-entering, laser hand-off, laser-only confirmation, Stop."""
+
+import math
+
+import numpy as np
+import pytest
+from user_tracker_ni.tracker import KINECT, LASER, Detection, Tracker, TrackerParams
+
+from user_tracker_ni import reid
+
+pytestmark = pytest.mark.unit
+
+RED = reid.signature(np.tile([[200, 20, 20]], (200, 1)))
+BLUE = reid.signature(np.tile([[20, 40, 200]], (200, 1)))
+GREEN = reid.signature(np.tile([[30, 180, 40]], (200, 1)))
+RATE = 15.0  # [Hz] Kinect frames
+
+
+def kinect(x, y, sig, rng):
+    return Detection(x + rng.normal(0, 0.03), y + rng.normal(0, 0.03), KINECT, 0.08, sig)
+
+
+def laser(x, y, rng):
+    return Detection(x + rng.normal(0, 0.02), y + rng.normal(0, 0.02), LASER, 0.05)
+
+
+def by_position(tracker, x, y):
+    """The published track nearest (x, y)."""
+    tracks = tracker.published()
+    return min(tracks, key=lambda tr: math.hypot(tr.position[0] - x, tr.position[1] - y))
+
+
+def test_crossing_paths_keep_their_ids():
+    rng = np.random.default_rng(1)
+    tracker = Tracker()
+    ids = {"a": set(), "b": set()}
+    for k in range(int(8 * RATE)):
+        t = k / RATE
+        a = (0.5 * t, 0.0)  # east along y = 0
+        b = (2.0, -2.0 + 0.5 * t)  # north along x = 2: both at (2, 0) at t = 4 s
+        tracker.update(t, [kinect(*a, RED, rng), kinect(*b, BLUE, rng)], KINECT)
+        if t > 0.5 and math.hypot(a[0] - b[0], a[1] - b[1]) > 0.3:
+            ids["a"].add(by_position(tracker, *a).pid)
+            ids["b"].add(by_position(tracker, *b).pid)
+    assert len(tracker.published()) == 2
+    assert len(ids["a"]) == 1 and len(ids["b"]) == 1 and ids["a"] != ids["b"], ids
+
+
+def test_a_short_occlusion_keeps_the_track():
+    rng = np.random.default_rng(2)
+    tracker = Tracker()
+    seen = set()
+    for k in range(int(6 * RATE)):
+        t = k / RATE
+        occluded = 2.0 <= t < 2.6  # 0.6 s behind furniture: shorter than the 1 s timeout
+        tracker.update(t, [] if occluded else [kinect(1.0 + 0.4 * t, 1.0, RED, rng)], KINECT)
+        seen |= {(tr.ni_id, tr.pid) for tr in tracker.published()}
+    assert len(seen) == 1
+    (track,) = tracker.published()
+    assert track.position[0] == pytest.approx(1.0 + 0.4 * (6 - 1 / RATE), abs=0.1)
+    assert track.velocity[0] == pytest.approx(0.4, abs=0.1)
+
+
+def test_leaving_and_returning_gets_the_old_persistent_id_and_a_new_ni_id():
+    rng = np.random.default_rng(3)
+    tracker = Tracker()
+    for k in range(int(2 * RATE)):
+        tracker.update(k / RATE, [kinect(2.0, 0.0, RED, rng), kinect(2.0, 1.5, GREEN, rng)], KINECT)
+    (red, green) = sorted(tracker.published(), key=lambda tr: tr.position[1])
+    first_red, first_green = (red.pid, red.ni_id), (green.pid, green.ni_id)
+    # red walks out of view for 3 s (dropped after 1 s); a blue stranger arrives meanwhile
+    for k in range(int(2 * RATE), int(5 * RATE)):
+        tracker.update(k / RATE, [kinect(2.0, 1.5, GREEN, rng), kinect(3.0, -1.0, BLUE, rng)], KINECT)
+    assert {tr.pid for tr in tracker.published()} == {first_green[0], max(first_red[0], first_green[0]) + 1}
+    for k in range(int(5 * RATE), int(7 * RATE)):
+        tracker.update(k / RATE, [kinect(2.5, 0.3, RED, rng), kinect(2.0, 1.5, GREEN, rng),
+                                  kinect(3.0, -1.0, BLUE, rng)], KINECT)
+    back = by_position(tracker, 2.5, 0.3)
+    assert back.pid == first_red[0], "the returning person gets their persistent id back"
+    assert back.ni_id != first_red[1], "and a new per-appearance id, as OpenNI's"
+    assert by_position(tracker, 2.0, 1.5).ni_id == first_green[1], "the one who stayed keeps hers"
+
+
+def test_laser_carries_a_person_the_kinect_lost():
+    rng = np.random.default_rng(4)
+    tracker = Tracker()
+    t = 0.0
+    for _ in range(10):  # seen by both
+        tracker.update(t, [kinect(1.5, 0.0, RED, rng)], KINECT)
+        tracker.update(t + 0.01, [laser(1.5, 0.0, rng)], LASER)
+        t += 0.1
+    (track,) = tracker.published()
+    ids = (track.pid, track.ni_id)
+    for k in range(50):  # walks beside the robot, out of the Kinect's view: the laser alone for 5 s
+        tracker.update(t, [], KINECT)
+        tracker.update(t + 0.01, [laser(1.5 - 0.03 * k, 0.02 * k, rng)], LASER)
+        t += 0.1
+    (track,) = tracker.published()
+    assert (track.pid, track.ni_id) == ids
+    assert track.position == pytest.approx((1.5 - 0.03 * 49, 0.02 * 49), abs=0.1)
+
+
+def test_laser_alone_confirms_only_legs_that_walk():
+    rng = np.random.default_rng(5)
+    tracker = Tracker()
+    t = 0.0
+    for k in range(40):  # 4 s: a table's legs at (3, 3) and (3, 3.5); a person walking from (0, 2)
+        tracker.update(t, [laser(3.0, 3.0, rng), laser(3.0, 3.5, rng), laser(0.0 + 0.05 * k, 2.0, rng)], LASER)
+        t += 0.1
+    (walker,) = tracker.published()
+    assert walker.position == pytest.approx((0.05 * 39, 2.0), abs=0.1)
+    assert walker.origin == LASER
+    assert walker.pid is not None  # no colour yet: a new persistent id after id_wait
+
+
+def test_clutter_seen_once_never_confirms():
+    rng = np.random.default_rng(6)
+    tracker = Tracker(TrackerParams(confirm_hits=3))
+    for k in range(30):  # a false Kinect detection every fourth frame, never twice in a row
+        tracker.update(k / RATE, [kinect(2.0, 2.0, GREEN, rng)] if k % 4 == 0 else [], KINECT)
+    assert tracker.published() == []
+
+
+def test_reset_forgets_tracks_but_not_people():
+    rng = np.random.default_rng(7)
+    tracker = Tracker()
+    for k in range(10):
+        tracker.update(k / RATE, [kinect(1.0, 1.0, RED, rng)], KINECT)
+    (before,) = tracker.published()
+    tracker.reset()
+    assert tracker.published() == [] and tracker.tracks == []
+    for k in range(10, 20):
+        tracker.update(k / RATE, [kinect(1.0, 1.0, RED, rng)], KINECT)
+    (after,) = tracker.published()
+    assert after.pid == before.pid and after.ni_id != before.ni_id
+
+
+def test_nan_detections_are_ignored():
+    tracker = Tracker()
+    tracker.update(0.0, [Detection(math.nan, 1.0, KINECT), Detection(1.0, math.inf, LASER)], KINECT)
+    assert tracker.tracks == []
+
+
+def test_params_are_validated():
+    with pytest.raises(ValueError, match="kinect_gate"):
+        Tracker(TrackerParams(kinect_gate=0.0))
