@@ -4,7 +4,6 @@ import math
 
 import numpy as np
 import pytest
-
 from filter_user_tracker.stale import keep_mask
 
 pytestmark = pytest.mark.unit
