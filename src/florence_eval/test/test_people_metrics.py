@@ -18,7 +18,7 @@ def test_view():
 
 def test_interpolation_takes_the_short_way_round():
     times, poses = np.array([0.0, 1.0]), np.array([[0.0, 0.0, math.pi - 0.1], [1.0, 0.0, -math.pi + 0.1]])
-    x, y, yaw = interpolate_poses(times, poses, 0.5)
+    x, _, yaw = interpolate_poses(times, poses, 0.5)
     assert x == 0.5 and math.cos(yaw) == pytest.approx(-1.0)
     assert interpolate_poses(times, poses, 2.0) is None
 
