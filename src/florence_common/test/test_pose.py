@@ -76,3 +76,15 @@ def test_transform_matrix_round_trip_and_rpy():
     t, q = pose.matrix_to_transform(m)
     assert t == pytest.approx((0.06, 0.0, -0.02))
     assert abs(pose.quaternion_to_rpy(q)[0]) == pytest.approx(math.pi)
+
+
+def test_depth_metres_of_both_encodings():
+    from florence_common.images import depth_metres
+
+    mm = np.array([[0, 1500], [65535, 250]], np.uint16)
+    assert np.allclose(depth_metres(mm, "16UC1"), [[np.nan, 1.5], [65.535, 0.25]], equal_nan=True)
+    m = np.array([[np.nan, 1.5], [np.inf, -1.0]], np.float32)
+    out = depth_metres(m, "32FC1")
+    assert out.dtype == np.float32 and np.isnan(out[0, 0]) and out[0, 1] == 1.5 and np.isnan(out[1]).all()
+    with pytest.raises(ValueError, match="8UC1"):
+        depth_metres(mm, "8UC1")

@@ -8,6 +8,7 @@ import numpy as np
 from geometry_msgs.msg import Pose, PoseStamped, Quaternion, Transform, TransformStamped
 
 from florence_common import pose as pose2d
+from florence_common.images import depth_metres
 
 # --- orientations -------------------------------------------------------------------------------
 
@@ -109,6 +110,12 @@ def image_to_array(msg, encoding="passthrough"):
         return _cv_bridge().imgmsg_to_cv2(msg, desired_encoding=encoding)
     except (CvBridgeError, TypeError, ValueError) as exc:
         raise ValueError(f"{msg.width}x{msg.height} {msg.encoding!r} image: {exc}") from exc
+
+
+def depth_image_metres(msg):
+    """float32 metres (NaN for no return) of a 32FC1 [m] or 16UC1 [mm] depth image; ValueError for
+    another encoding or data that does not decode."""
+    return depth_metres(image_to_array(msg), msg.encoding)
 
 
 def array_to_image(array, encoding, header=None):

@@ -33,14 +33,13 @@ import threading
 import time
 from collections import Counter, deque
 
-import numpy as np
 import rospy
 import tf2_ros
 from geometry_msgs.msg import Point, Vector3
 from sensor_msgs.msg import CameraInfo, Image, LaserScan
 from visualization_msgs.msg import Marker, MarkerArray
 
-from florence_common_ros.convert import image_to_array, to_matrix, transform_stamped
+from florence_common_ros.convert import depth_image_metres, image_to_array, to_matrix, transform_stamped
 from florence_common_ros.diagnostics import ERROR, OK, WARN, Diagnostics
 from florence_common_ros.node import read_params, run
 from user_tracker_ni import depth_people, laser_legs
@@ -53,19 +52,6 @@ LOG = "user_tracker_ni: "
 KINECT_STD, LASER_STD = 0.08, 0.05  # [m] position noise of a detection of each sensor
 RECENT = 0.5  # [s] a sensor "saw" a user when it did within this long (the sensors field)
 COLOURS = [(0.9, 0.2, 0.2), (0.2, 0.5, 0.9), (0.2, 0.8, 0.3), (0.9, 0.7, 0.1), (0.7, 0.3, 0.9), (0.1, 0.8, 0.8)]
-
-
-def depth_metres(msg):
-    """float32 metres (NaN for no return) of a 32FC1 (m) or 16UC1 (mm) depth image; ValueError
-    for another encoding."""
-    if msg.encoding == "32FC1":
-        d = image_to_array(msg).astype(np.float32, copy=True)
-        d[~np.isfinite(d) | (d <= 0)] = np.nan
-        return d
-    if msg.encoding in ("16UC1", "mono16"):
-        mm = image_to_array(msg)
-        return np.where(mm > 0, mm.astype(np.float32) / 1000.0, np.nan).astype(np.float32)
-    raise ValueError(f"depth encoding {msg.encoding!r} (want 32FC1 or 16UC1)")
 
 
 def colour_rgb(msg):
@@ -190,7 +176,7 @@ class UserTrackerNode:
         if self.camera is None:
             self._warn("camera_info", "depth frame skipped: no camera_info received yet")
             return None
-        depth = depth_metres(msg)
+        depth = depth_image_metres(msg)
         if depth.shape != (self.camera.height, self.camera.width):
             raise ValueError(f"image {depth.shape[1]}x{depth.shape[0]} does not match camera_info "
                              f"{self.camera.width}x{self.camera.height}")
