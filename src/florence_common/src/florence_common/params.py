@@ -227,6 +227,7 @@ class ParamTable:
         """The README table: name, type, default, unit, allowed range, meaning."""
         rows = ["| parameter | type | default | unit | range | meaning |", "| --- | --- | --- | --- | --- | --- |"]
         for p in self.params:
-            rows.append(f"| `~{p.name}` | {_TYPE_NAMES[p.type]} | `{_default_text(p.default)}` | {p.unit} | "
-                        f"{p.range_text()} | {p.doc} |")
+            cells = (f"`~{p.name}`", _TYPE_NAMES[p.type], f"`{_default_text(p.default)}`", p.unit, p.range_text(),
+                     p.doc)
+            rows.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
         return "\n".join(rows)

@@ -1,59 +1,71 @@
 """velocity_filter_node: the last node before the motors (seed 3.6, Table 8).
 
-ROS Parameters:
-    ~max_linear_acc (float, 1.0, m/s^2): largest change of the forward speed per second.
-    ~max_angular_acc (float, 1.0, rad/s^2): largest change of the turn rate per second.
-    ~publishing_rate (float, 50, Hz): fixed rate of the output.
-    ~command_timeout (float, 1.0, s): a command this old counts as zero velocity; the
-        output then ramps to zero at the acceleration limits.
-    ~max_linear_vel (float, 0.5, m/s): absolute cap of |linear.x| in and out.
-    ~max_angular_vel (float, 2.0, rad/s): absolute cap of |angular.z| in and out.
+ROS Parameters: PARAMS below (rendered in the README); non-positive or non-finite values are
+a fatal error at start-up.
 
-Subscribers:
+ROS Subscribers:
     cmd_vel (geometry_msgs/Twist): desired velocity (linear.x, angular.z; the other
         components are ignored: the base is a differential drive). Commands with a NaN or
         infinite component are rejected with a throttled warning.
 
-Publishers:
+ROS Publishers:
     filtered_cmd_vel (geometry_msgs/Twist): the limited velocity, at ~publishing_rate,
-        always (zero when idle), so a base with its own command timeout stays stopped.
+        always (zero when idle), so a base with its own command timeout stays stopped; one
+        zero Twist on shutdown.
+    /diagnostics: output rate, whether the input timed out, rejected commands.
 """
 
-import contextlib
 import threading
 import warnings
 
 import rospy
 from geometry_msgs.msg import Twist
 
+from florence_common.params import Param, ParamTable
+from florence_common_ros.diagnostics import OK, WARN, Diagnostics
+from florence_common_ros.node import publish_stop, read_params, run
 from velocity_filter.limiter import Limits, VelocityFilter
 
 LOG = "velocity_filter: "
+PARAMS = ParamTable(
+    Param("max_linear_acc", float, Limits.max_linear_acc, "largest change of the forward speed per second (seed)",
+          unit="m/s^2", gt=0),
+    Param("max_angular_acc", float, Limits.max_angular_acc, "largest change of the turn rate per second (seed)",
+          unit="rad/s^2", gt=0),
+    Param("publishing_rate", float, Limits.publishing_rate, "fixed rate of the output (seed)", unit="Hz", gt=0),
+    Param("command_timeout", float, Limits.command_timeout,
+          "a command this old counts as zero velocity; the output then ramps to zero (seed)", unit="s", gt=0),
+    Param("max_linear_vel", float, Limits.max_linear_vel,
+          "absolute cap of |linear.x| in and out (the Create's top speed)", unit="m/s", gt=0),
+    Param("max_angular_vel", float, Limits.max_angular_vel, "absolute cap of |angular.z| in and out", unit="rad/s",
+          gt=0),
+)
 
 
 class VelocityFilterNode:
     def __init__(self):
-        defaults = Limits()
-        limits = Limits(**{name: float(rospy.get_param(f"~{name}", getattr(defaults, name)))
-                           for name in defaults.__dataclass_fields__})
-        problems = limits.problems()
-        if problems:
-            raise ValueError("; ".join(problems))
+        limits = Limits(**read_params(PARAMS))
         self.filter = VelocityFilter(limits)
         self._lock = threading.Lock()
+        self.rejected = 0
         # Synchronous publishing (queue_size=None) without Nagle: the motor command leaves in
         # the timer thread itself, one thread hop less of period jitter (bench/filters.py).
         # rospy warns about queue_size=None on principle; here it is deliberate.
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", SyntaxWarning)
             self.pub = rospy.Publisher("filtered_cmd_vel", Twist, queue_size=None, tcp_nodelay=True)
+        self.diag = Diagnostics("velocity_filter")
+        rate = limits.publishing_rate
+        self.out_rate = self.diag.frequency("Output rate", 0.9 * rate, 1.1 * rate)
+        self.diag.add("Commands", self._diagnose)
         self.sub = rospy.Subscriber("cmd_vel", Twist, self.on_cmd_vel, queue_size=1)
-        self.timer = rospy.Timer(rospy.Duration(1.0 / limits.publishing_rate), self.on_timer)
+        self.timer = rospy.Timer(rospy.Duration(1.0 / rate), self.on_timer)
         rospy.loginfo(LOG + "%s", limits)
 
     def on_cmd_vel(self, msg):
         with self._lock:
             accepted = self.filter.command(msg.linear.x, msg.angular.z, rospy.get_time())
+            self.rejected += not accepted
         if not accepted:
             rospy.logwarn_throttle(5.0, LOG + f"rejected a non-finite command "
                                    f"(linear.x={msg.linear.x}, angular.z={msg.angular.z}); keeping the previous one")
@@ -66,22 +78,28 @@ class VelocityFilterNode:
         out.angular.z = angular
         try:
             self.pub.publish(out)
+            self.out_rate.tick()
         except rospy.ROSException as exc:  # shutting down
             rospy.logdebug(LOG + "publish failed: %s", exc)
 
-    def stop(self):
+    def _diagnose(self, stat):
+        with self._lock:
+            timed_out = self.filter.timed_out(rospy.get_time())
+            linear, angular = self.filter.linear, self.filter.angular
+        stat.summary(WARN if self.rejected else OK,
+                     ("no command within the timeout: ramping to zero" if timed_out else "following commands")
+                     + (f"; {self.rejected} non-finite command(s) rejected" if self.rejected else ""))
+        stat.add("input timed out", timed_out)
+        stat.add("output linear.x (m/s)", f"{linear:.3f}")
+        stat.add("output angular.z (rad/s)", f"{angular:.3f}")
+        stat.add("rejected commands", self.rejected)
+        return stat
+
+    def shutdown(self):
         """On shutdown, command a safe state once: zero velocity."""
         self.timer.shutdown()
-        with contextlib.suppress(rospy.ROSException):
-            self.pub.publish(Twist())
+        publish_stop(self.pub, wait=0.0)
 
 
 def main():
-    rospy.init_node("velocity_filter_node")
-    try:
-        node = VelocityFilterNode()
-    except (ValueError, TypeError) as exc:
-        rospy.logfatal(LOG + "bad parameters: %s", exc)
-        raise SystemExit(1) from exc
-    rospy.on_shutdown(node.stop)
-    rospy.spin()
+    run(VelocityFilterNode, "velocity_filter_node")
