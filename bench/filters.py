@@ -80,10 +80,12 @@ def processing_times(repeat):
     from cmd_vel_mux.mux import MuxInput, PriorityMux
     from laser_combinator.node import combined_scan
     from laser_filter.node import filtered_scan
-    from pointcloud_to_laserscan.node import cloud_to_points, image_to_array
-    from pointcloud_to_laserscan.projection import DepthProjector, ScanParams, depth_to_metres, points_to_ranges
+    from pointcloud_to_laserscan.node import cloud_to_points
+    from pointcloud_to_laserscan.projection import DepthProjector, ScanParams, points_to_ranges
     from sensor_msgs import point_cloud2
     from std_msgs.msg import Header
+
+    from florence_common_ros.convert import depth_image_metres
 
     rng = np.random.default_rng(0)
     scans, kinect = laser_scans(rng, 20), kinect_scans(rng, 20)
@@ -98,7 +100,7 @@ def processing_times(repeat):
     for encoding in ("32FC1", "16UC1"):
         images = depth_images(rng, 5, encoding)
         results[f"pointcloud_to_laserscan_depth_{encoding}"] = timed(
-            lambda m: projector.ranges(depth_to_metres(image_to_array(m), m.encoding), K, OPTICAL_TO_DEPTH,
+            lambda m: projector.ranges(depth_image_metres(m), K, OPTICAL_TO_DEPTH,
                                        OPTICAL_TO_FLOOR).tolist(), images, max(repeat // 10, 50))
     z = rng.uniform(0.4, 5.0, (480, 640))
     u, v = np.meshgrid(np.arange(640), np.arange(480))

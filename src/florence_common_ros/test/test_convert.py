@@ -59,3 +59,13 @@ def test_an_image_that_does_not_decode_is_a_value_error():
     msg.data = msg.data[:10]  # truncated
     with pytest.raises(ValueError, match="32FC1"):
         convert.image_to_array(msg)
+
+
+def test_padded_rows_are_read_right():
+    """Debian's cv_bridge ignores step; the wrapper repacks padded rows first."""
+    array = np.arange(12, dtype=np.uint16).reshape(3, 4)
+    msg = convert.array_to_image(array, "16UC1")
+    rows = np.frombuffer(msg.data, np.uint8).reshape(3, 8)
+    msg.data = np.hstack([rows, np.full((3, 8), 0xAB, np.uint8)]).tobytes()
+    msg.step = 16
+    assert np.array_equal(convert.image_to_array(msg), array)

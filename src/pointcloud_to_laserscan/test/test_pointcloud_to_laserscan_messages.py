@@ -1,12 +1,15 @@
-"""Message decoding of the node: depth images (both encodings, row padding, endianness)
-and point clouds (point_step padding), and the clear errors on malformed input."""
+"""Message decoding of the node: depth images through florence_common_ros.convert (cv_bridge;
+both encodings, row padding, endianness) and point clouds (point_step padding), and the clear
+errors on malformed input."""
 
 import numpy as np
 import pytest
-from pointcloud_to_laserscan.node import cloud_to_points, image_to_array
+from pointcloud_to_laserscan.node import cloud_to_points
 from sensor_msgs import point_cloud2
 from sensor_msgs.msg import Image, PointField
 from std_msgs.msg import Header
+
+from florence_common_ros.convert import depth_image_metres
 
 
 def image(array, encoding, pad=0, bigendian=False):
@@ -17,11 +20,12 @@ def image(array, encoding, pad=0, bigendian=False):
 
 
 @pytest.mark.parametrize("encoding, dtype", [("32FC1", np.float32), ("16UC1", np.uint16)])
-@pytest.mark.parametrize("pad, bigendian", [(0, False), (6, False), (0, True)])
+@pytest.mark.parametrize("pad, bigendian", [(0, False), (8, False), (0, True)])
 def test_image_decoding(encoding, dtype, pad, bigendian):
-    arr = (np.arange(12).reshape(3, 4) * 100).astype(dtype)
-    out = image_to_array(image(arr, encoding, pad, bigendian))
-    assert out.shape == (3, 4) and np.array_equal(out.astype(np.float64), arr.astype(np.float64))
+    arr = (np.arange(1, 13).reshape(3, 4) * 100).astype(dtype)
+    out = depth_image_metres(image(arr, encoding, pad, bigendian))
+    scale = 1.0 if encoding == "32FC1" else 0.001  # 16UC1 is millimetres
+    assert out.shape == (3, 4) and np.allclose(out, arr.astype(np.float64) * scale)
 
 
 @pytest.mark.parametrize(
@@ -29,13 +33,14 @@ def test_image_decoding(encoding, dtype, pad, bigendian):
     [
         (Image(height=2, width=2, encoding="rgb8", step=6, data=b"\0" * 12), "encoding"),
         (Image(height=2, width=2, encoding="32FC1", step=8, data=b"\0" * 12), "too short"),
-        (Image(height=2, width=2, encoding="16UC1", step=2, data=b"\0" * 8), "too short"),
+        (Image(height=2, width=2, encoding="16UC1", step=2, data=b"\0" * 8), "does not hold"),
+        (Image(height=2, width=2, encoding="32FC1", step=10, data=b"\0" * 20), "does not hold"),
     ],
-    ids=["encoding", "truncated", "step-too-small"],
+    ids=["encoding", "truncated", "step-too-small", "step-not-whole-pixels"],
 )
 def test_bad_images_are_clear_errors(msg, message):
     with pytest.raises(ValueError, match=message):
-        image_to_array(msg)
+        depth_image_metres(msg)
 
 
 def test_cloud_decoding_with_extra_fields():

@@ -8,7 +8,6 @@ import pytest
 from pointcloud_to_laserscan.projection import (
     DepthProjector,
     ScanParams,
-    depth_to_metres,
     points_to_ranges,
 )
 
@@ -110,17 +109,6 @@ def test_point_cloud_bearings_and_nearest_point():
     assert r[180] == pytest.approx(1.0, abs=1e-6)  # nearest of the two points ahead
     assert r[270] == pytest.approx(math.sqrt(2), abs=1e-6)  # 45 degrees left
     assert np.count_nonzero(np.isfinite(r)) == 2  # too high, NaN and too near are skipped
-
-
-def test_depth_encodings():
-    mm = np.array([[0, 1000, 65535]], np.uint16)
-    assert depth_to_metres(mm, "16UC1")[0, 1:] == pytest.approx([1.0, 65.535])
-    assert math.isnan(depth_to_metres(mm, "16UC1")[0, 0])
-    m = np.array([[0.0, 1.5, -1.0]], np.float32)
-    out = depth_to_metres(m, "32FC1")
-    assert math.isnan(out[0, 0]) and out[0, 1] == 1.5 and math.isnan(out[0, 2])
-    with pytest.raises(ValueError, match="encoding"):
-        depth_to_metres(m, "rgb8")
 
 
 def test_camera_info_without_focal_length_is_an_error():

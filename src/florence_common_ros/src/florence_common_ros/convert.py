@@ -4,6 +4,8 @@ sensor_msgs/Image <-> numpy arrays (through Debian's cv_bridge).
 The maths is florence_common.pose's; this module only unpacks and packs messages.
 """
 
+import copy
+
 import numpy as np
 from geometry_msgs.msg import Pose, PoseStamped, Quaternion, Transform, TransformStamped
 
@@ -102,14 +104,33 @@ def _cv_bridge():
 
 
 def image_to_array(msg, encoding="passthrough"):
-    """numpy array of a sensor_msgs/Image (cv_bridge: ``encoding`` as its desired_encoding).
-    Raises ValueError (with cv_bridge's reason) for an image that does not decode."""
+    """numpy array of a sensor_msgs/Image (cv_bridge: ``encoding`` as its desired_encoding; row
+    padding and either byte order are honoured). Raises ValueError, naming the image, for an
+    image that does not decode: an unknown encoding, data shorter than height x step, or a step
+    that is no whole number of pixels (cv_bridge would misread the rows)."""
     from cv_bridge import CvBridgeError
 
+    what = f"{msg.width}x{msg.height} {msg.encoding!r} image"
+    bridge = _cv_bridge()
     try:
-        return _cv_bridge().imgmsg_to_cv2(msg, desired_encoding=encoding)
+        dtype, channels = bridge.encoding_to_dtype_with_channels(msg.encoding)
+    except (CvBridgeError, TypeError, ValueError, KeyError) as exc:
+        raise ValueError(f"{what}: unsupported encoding ({exc})") from exc
+    pixel = np.dtype(dtype).itemsize * channels
+    if msg.step < msg.width * pixel or msg.step % np.dtype(dtype).itemsize:
+        raise ValueError(f"{what}: step {msg.step} bytes does not hold {msg.width} pixels of {pixel} bytes")
+    if len(msg.data) < msg.step * msg.height:
+        raise ValueError(f"{what}: data too short ({len(msg.data)} bytes for {msg.height} rows of {msg.step})")
+    if msg.step != msg.width * pixel:
+        # Debian's cv_bridge (1.16) reads rows as width x pixel bytes and ignores step: repack
+        # padded rows first, or every row after the first would be shifted
+        rows = np.frombuffer(msg.data, np.uint8, count=msg.step * msg.height).reshape(msg.height, msg.step)
+        msg = copy.copy(msg)
+        msg.data, msg.step = rows[:, :msg.width * pixel].tobytes(), msg.width * pixel
+    try:
+        return bridge.imgmsg_to_cv2(msg, desired_encoding=encoding)
     except (CvBridgeError, TypeError, ValueError) as exc:
-        raise ValueError(f"{msg.width}x{msg.height} {msg.encoding!r} image: {exc}") from exc
+        raise ValueError(f"{what}: {exc}") from exc
 
 
 def depth_image_metres(msg):

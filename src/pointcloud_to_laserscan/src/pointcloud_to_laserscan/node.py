@@ -1,30 +1,18 @@
 """pointcloud_to_laserscan_node: Kinect depth to a fake laser scan (/kinect_scan, seed 3.7).
 
-ROS Parameters (names of ROS's pointcloud_to_laserscan):
-    ~input (str, "cloud"): "cloud" subscribes to cloud_in (PointCloud2), "depth" to
-        image + camera_info (depth image 32FC1 [m] or 16UC1 [mm], optical frame).
-    ~target_frame (str, "camera_depth_frame"; ~output_frame_id is accepted as the old
-        TurtleBot name): frame of the scan; bearings are taken in its x-y plane.
-    ~height_frame (str, "base_footprint"): frame whose z is the height used by
-        min_height/max_height (the floor on the robot); "" uses target_frame as ROS's
-        pointcloud_to_laserscan does.
-    ~min_height (float, 0.0, m), ~max_height (float, 1.0, m): band of heights kept.
-    ~angle_min (float, -pi/2, rad), ~angle_max (float, pi/2, rad),
-    ~angle_increment (float, pi/360, rad): the scan's beams.
-    ~scan_time (float, 1/30, s): copied into the scan.
-    ~range_min (float, 0.45, m), ~range_max (float, 4.0, m): ranges kept.
-    ~use_inf (bool, true): beams without a point read +inf, else range_max + inf_epsilon.
-    ~inf_epsilon (float, 1.0, m): see use_inf.
+ROS Parameters: PARAMS below, the names of ROS's pointcloud_to_laserscan (rendered in the README).
 
-Subscribers:
+ROS Subscribers:
     cloud_in (sensor_msgs/PointCloud2, float32 x y z fields) when ~input is "cloud".
     image (sensor_msgs/Image) and camera_info (sensor_msgs/CameraInfo) when ~input is "depth".
 
-Publishers:
+ROS Publishers:
     scan (sensor_msgs/LaserScan): the fake laser scan, stamped like its input. Inputs
         that cannot be converted (unknown frame, bad encoding, truncated data) give no
         scan and a throttled warning.
+    /diagnostics: the input rate, scans published, inputs dropped and the last reason.
 """
+
 
 
 import numpy as np
@@ -32,33 +20,35 @@ import rospy
 import tf2_ros
 from sensor_msgs.msg import CameraInfo, Image, LaserScan, PointCloud2, PointField
 from std_msgs.msg import Header
-from tf.transformations import quaternion_matrix
 
-from pointcloud_to_laserscan.projection import DepthProjector, ScanParams, depth_to_metres, points_to_ranges
+from florence_common.params import FRAME, Param, ParamTable
+from florence_common_ros.convert import depth_image_metres, to_matrix
+from florence_common_ros.diagnostics import OK, WARN, Diagnostics
+from florence_common_ros.node import read_params, run
+from pointcloud_to_laserscan.projection import DepthProjector, ScanParams, points_to_ranges
 
 LOG = "pointcloud_to_laserscan: "
-IMAGE_DTYPES = {"32FC1": np.float32, "16UC1": np.uint16, "mono16": np.uint16}
-
-
-def matrix(transform):
-    """4x4 homogeneous matrix of a geometry_msgs/Transform."""
-    q, t = transform.rotation, transform.translation
-    m = quaternion_matrix([q.x, q.y, q.z, q.w])
-    m[:3, 3] = (t.x, t.y, t.z)
-    return m
-
-
-def image_to_array(msg):
-    """(height, width) array of a depth Image, honouring step and endianness."""
-    dtype = IMAGE_DTYPES.get(msg.encoding)
-    if dtype is None:
-        raise ValueError(f"unsupported depth encoding {msg.encoding!r} (need 32FC1 or 16UC1)")
-    dtype = np.dtype(dtype).newbyteorder(">" if msg.is_bigendian else "<")
-    row = msg.width * dtype.itemsize
-    if msg.step < row or len(msg.data) < msg.step * msg.height:
-        raise ValueError(f"image data too short: {len(msg.data)} bytes for {msg.height} rows of step {msg.step}")
-    rows = np.frombuffer(msg.data, dtype=np.uint8, count=msg.step * msg.height).reshape(msg.height, msg.step)
-    return rows[:, :row].copy().view(dtype).reshape(msg.height, msg.width)
+_D = ScanParams()
+PARAMS = ParamTable(
+    Param("input", str, "cloud", '"cloud" subscribes to cloud_in (PointCloud2), "depth" to image + camera_info '
+          "(32FC1 [m] or 16UC1 [mm], optical frame)", choices=("cloud", "depth")),
+    Param("target_frame", FRAME, "", "frame of the scan; bearings are taken in its x-y plane (empty: "
+          "~output_frame_id)"),
+    Param("output_frame_id", FRAME, "camera_depth_frame", "the old TurtleBot name of ~target_frame"),
+    Param("height_frame", FRAME, "base_footprint", "frame whose z is the height of min_height/max_height (the "
+          "floor on the robot); empty: target_frame, as ROS's pointcloud_to_laserscan"),
+    Param("min_height", float, _D.min_height, "lowest point kept", unit="m"),
+    Param("max_height", float, _D.max_height, "highest point kept", unit="m"),
+    Param("angle_min", float, _D.angle_min, "first beam", unit="rad"),
+    Param("angle_max", float, _D.angle_max, "last beam", unit="rad"),
+    Param("angle_increment", float, _D.angle_increment, "between beams", unit="rad", gt=0),
+    Param("scan_time", float, _D.scan_time, "copied into the scan", unit="s", ge=0),
+    Param("range_min", float, _D.range_min, "nearer points are not used", unit="m", ge=0),
+    Param("range_max", float, _D.range_max, "farther points are not used", unit="m", gt=0),
+    Param("use_inf", bool, _D.use_inf, "beams without a point read +inf (false: range_max + inf_epsilon)"),
+    Param("inf_epsilon", float, _D.inf_epsilon, "see use_inf", unit="m", ge=0),
+)
+SCAN_FIELDS = tuple(ScanParams.__dataclass_fields__)
 
 
 def cloud_to_points(msg):
@@ -80,48 +70,50 @@ def cloud_to_points(msg):
     return np.stack([pts["x"], pts["y"], pts["z"]], axis=1).astype(np.float32)
 
 
-def read_params():
-    defaults = ScanParams()
-    values = {name: float(rospy.get_param(f"~{name}", getattr(defaults, name)))
-              for name in defaults.__dataclass_fields__ if name != "use_inf"}
-    values["use_inf"] = bool(rospy.get_param("~use_inf", defaults.use_inf))
-    params = ScanParams(**values)
-    problems = params.problems()
-    if problems:
-        raise ValueError("; ".join(problems))
-    return params
-
-
 class PointCloudToLaserScanNode:
     def __init__(self):
-        self.params = read_params()
-        self.input = str(rospy.get_param("~input", "cloud"))
-        if self.input not in ("cloud", "depth"):
-            raise ValueError(f"~input must be 'cloud' or 'depth', got {self.input!r}")
-        default_target = rospy.get_param("~output_frame_id", "camera_depth_frame")
-        self.target_frame = str(rospy.get_param("~target_frame", default_target)).lstrip("/")
+        p = read_params(PARAMS)
+        self.params = ScanParams(**{name: p[name] for name in SCAN_FIELDS})
+        problems = self.params.problems()
+        if problems:
+            raise ValueError("; ".join(problems))
+        self.input = p.input
+        self.target_frame = p.target_frame or p.output_frame_id
         if not self.target_frame:
             raise ValueError("~target_frame must name a frame")
-        self.height_frame = str(rospy.get_param("~height_frame", "base_footprint")).lstrip("/") or self.target_frame
+        self.height_frame = p.height_frame or self.target_frame
         self.projector = DepthProjector(self.params)
         self.camera_info = None
+        self.published = self.dropped = 0
+        self.last_problem = ""
         self.tf_buffer = tf2_ros.Buffer()
         self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
         self.pub = rospy.Publisher("scan", LaserScan, queue_size=2)
+        self.diag = Diagnostics("pointcloud_to_laserscan")
+        self.rate = self.diag.frequency("Input rate", 5.0, 60.0)
+        self.diag.add("Scans", self._diagnose)
         if self.input == "cloud":
             self.subs = [rospy.Subscriber("cloud_in", PointCloud2, self.on_cloud, queue_size=1, buff_size=2 ** 24)]
         else:
             self.subs = [rospy.Subscriber("camera_info", CameraInfo, self.on_camera_info, queue_size=1),
                          rospy.Subscriber("image", Image, self.on_image, queue_size=1, buff_size=2 ** 24)]
 
+    def _diagnose(self, stat):
+        stat.summary(WARN if self.dropped else OK, f"{self.dropped} input(s) dropped" if self.dropped else
+                     f"publishing from the {self.input}")
+        stat.add("scans published", self.published)
+        stat.add("inputs dropped", self.dropped)
+        stat.add("last problem", self.last_problem)
+        return stat
+
     def transforms(self, source_frame):
         source_frame = source_frame.lstrip("/")  # tf2 refuses the tf1-style leading "/"
         if not source_frame:
             raise ValueError("input has no frame_id")
         lookup = self.tf_buffer.lookup_transform
-        t_target = matrix(lookup(self.target_frame, source_frame, rospy.Time(0)).transform)
+        t_target = to_matrix(lookup(self.target_frame, source_frame, rospy.Time(0)))
         t_height = t_target if self.height_frame == self.target_frame else \
-            matrix(lookup(self.height_frame, source_frame, rospy.Time(0)).transform)
+            to_matrix(lookup(self.height_frame, source_frame, rospy.Time(0)))
         return t_target, t_height
 
     def publish(self, header, ranges):
@@ -131,11 +123,15 @@ class PointCloudToLaserScanNode:
                          time_increment=0.0, scan_time=p.scan_time, range_min=p.range_min, range_max=p.range_max)
         scan.ranges = ranges.tolist()
         self.pub.publish(scan)
+        self.published += 1
 
     def guarded(self, convert, msg):
+        self.rate.tick()
         try:
             self.publish(msg.header, convert(msg))
         except (ValueError, TypeError, tf2_ros.TransformException) as exc:
+            self.dropped += 1
+            self.last_problem = f"{type(exc).__name__}: {exc}"
             rospy.logwarn_throttle(5.0, LOG + f"no scan from a {type(msg).__name__}: {type(exc).__name__}: {exc}")
 
     def on_cloud(self, msg):
@@ -158,17 +154,9 @@ class PointCloudToLaserScanNode:
         if (info.width, info.height) != (msg.width, msg.height):
             raise ValueError(f"camera_info is {info.width}x{info.height}, image {msg.width}x{msg.height}")
         t_target, t_height = self.transforms(msg.header.frame_id)
-        z = depth_to_metres(image_to_array(msg), msg.encoding)
+        z = depth_image_metres(msg)
         return self.projector.ranges(z, info.K, t_target, t_height)
 
 
 def main():
-    rospy.init_node("pointcloud_to_laserscan")
-    try:
-        PointCloudToLaserScanNode()
-    except (ValueError, TypeError) as exc:
-        rospy.logfatal(LOG + "bad parameters: %s", exc)
-        raise SystemExit(1) from exc
-    rospy.spin()
-
-
+    run(PointCloudToLaserScanNode, "pointcloud_to_laserscan")

@@ -120,18 +120,6 @@ def planar_ranges(x, y, h, params):
     return nearest_per_beam(idx[inside], r[keep][inside], params.size, params.no_return())
 
 
-def depth_to_metres(depth, encoding):
-    """float32 metres from a 32FC1 (metres) or 16UC1 (millimetres) depth array; 0 -> NaN."""
-    if encoding == "32FC1":
-        z = np.asarray(depth, dtype=np.float32)
-    elif encoding in ("16UC1", "mono16"):
-        z = np.asarray(depth, dtype=np.float32) * np.float32(0.001)
-    else:
-        raise ValueError(f"unsupported depth encoding {encoding!r} (need 32FC1 [m] or 16UC1 [mm])")
-    z = np.where(z > 0, z, np.float32(np.nan))  # 0 is "no measurement"; negative is nonsense
-    return z
-
-
 class DepthProjector:
     """Depth image (in the camera's optical frame, z forward) to scan ranges.
 
