@@ -86,3 +86,14 @@ def test_docstring_and_markdown():
     assert md[0].startswith("| parameter | type | default | unit | range | meaning |")
     assert "| `~rate` | float | `50` | Hz | > 0 | publishing rate |" in md
     assert len(md) == 2 + len(TABLE.params)
+
+
+def test_a_table_of_relative_names():
+    table = ParamTable(Param("hokuyo_node/max_ang", float, 1.57, "the Hokuyo's last angle", unit="rad", gt=0),
+                       prefix="")
+    assert table.validate({"hokuyo_node/max_ang": 2.0}).hokuyo_node_max_ang == 2.0
+    with pytest.raises(ParamError, match=r"^hokuyo_node/max_ang must be > 0 \[rad\], got -1"):
+        table.validate({"hokuyo_node/max_ang": -1})
+    assert table.markdown().splitlines()[2].startswith("| `hokuyo_node/max_ang` |")
+    with pytest.raises(ValueError, match="prefixes"):
+        table + TABLE

@@ -56,19 +56,25 @@ class Param:
             self.convert(self.default)  # a table whose default is out of its own range is a bug
 
     # --- reading -------------------------------------------------------------------------------
-    def convert(self, raw):
-        """The value of ``raw`` as this parameter's type; ParamError when it does not fit."""
-        if raw is None:
-            if self.optional:
-                return None
-            raise self._error("must be set", raw)
-        value = self._typed(raw)
-        problem = self._range_problem(value)
-        if problem is None and self.check is not None:
-            problem = self.check(value)
-        if problem:
-            raise self._error(problem, raw)
-        return value
+    def convert(self, raw, prefix="~"):
+        """The value of ``raw`` as this parameter's type; ParamError when it does not fit (its
+        message names the parameter as ``prefix + name``)."""
+        try:
+            if raw is None:
+                if self.optional:
+                    return None
+                raise self._error("must be set", raw)
+            value = self._typed(raw)
+            problem = self._range_problem(value)
+            if problem is None and self.check is not None:
+                problem = self.check(value)
+            if problem:
+                raise self._error(problem, raw)
+            return value
+        except ParamError as exc:
+            if prefix == "~":
+                raise
+            raise ParamError(prefix + str(exc)[1:]) from None
 
     def _typed(self, raw):
         t = self.type
@@ -120,13 +126,13 @@ class Param:
                  if v is not None]
         return " and ".join(parts)
 
-    def describe(self):
+    def describe(self, prefix="~"):
         """One line for a docstring: ``~name (type, default, unit; range): doc``."""
         meta = [_TYPE_NAMES[self.type], _default_text(self.default)]
         if self.unit:
             meta.append(self.unit)
         rng = self.range_text()
-        return f"~{self.name} ({', '.join(meta)}{'; ' + rng if rng else ''}): {self.doc}"
+        return f"{prefix}{self.name} ({', '.join(meta)}{'; ' + rng if rng else ''}): {self.doc}"
 
 
 def _num(v):
@@ -170,9 +176,13 @@ class Params(Mapping):
 
 
 class ParamTable:
-    """The parameters of one node (or one component), in the order they are documented."""
+    """The parameters of one node (or one component), in the order they are documented.
 
-    def __init__(self, *params):
+    ``prefix`` is how their names resolve: "~" (the node's private namespace, the usual case) or
+    "" (relative names, e.g. another node's ``hokuyo_node/max_ang``)."""
+
+    def __init__(self, *params, prefix="~"):
+        self.prefix = prefix
         names = [p.name for p in params]
         dup = sorted({n for n in names if names.count(n) > 1})
         if dup:
@@ -189,7 +199,9 @@ class ParamTable:
         raise KeyError(name)
 
     def __add__(self, other):
-        return ParamTable(*self.params, *other.params)
+        if other.prefix != self.prefix:
+            raise ValueError("tables of different prefixes do not add up")
+        return ParamTable(*self.params, *other.params, prefix=self.prefix)
 
     def names(self):
         return [p.name for p in self.params]
@@ -201,7 +213,7 @@ class ParamTable:
         values, problems = {}, []
         for p in self.params:
             try:
-                values[p.name.replace("/", "_")] = p.convert(get(p.name, p.default))
+                values[p.name.replace("/", "_")] = p.convert(get(p.name, p.default), self.prefix)
             except ParamError as exc:
                 problems.append(str(exc))
         if problems:
@@ -212,7 +224,7 @@ class ParamTable:
         """Values from a dict: names it lacks take their defaults; unknown names are refused."""
         unknown = sorted(set(values) - set(self.names()))
         if unknown:
-            raise ParamError(f"unknown parameter(s) {', '.join('~' + n for n in unknown)}")
+            raise ParamError(f"unknown parameter(s) {', '.join(self.prefix + n for n in unknown)}")
         return self.read(values.get)
 
     def defaults(self):
@@ -221,13 +233,13 @@ class ParamTable:
     def docstring(self, indent=4):
         """The ``ROS Parameters:`` lines of a node's docstring."""
         pad = " " * indent
-        return "\n".join(pad + p.describe() for p in self.params)
+        return "\n".join(pad + p.describe(self.prefix) for p in self.params)
 
     def markdown(self):
         """The README table: name, type, default, unit, allowed range, meaning."""
         rows = ["| parameter | type | default | unit | range | meaning |", "| --- | --- | --- | --- | --- | --- |"]
         for p in self.params:
-            cells = (f"`~{p.name}`", _TYPE_NAMES[p.type], f"`{_default_text(p.default)}`", p.unit, p.range_text(),
-                     p.doc)
+            cells = (f"`{self.prefix}{p.name}`", _TYPE_NAMES[p.type], f"`{_default_text(p.default)}`", p.unit,
+                     p.range_text(), p.doc)
             rows.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
         return "\n".join(rows)

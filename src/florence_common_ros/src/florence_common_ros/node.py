@@ -27,10 +27,11 @@ import rospy
 from florence_common.params import ParamError
 
 
-def read_params(table, namespace="~"):
-    """Values of ``table`` (florence_common.params.ParamTable) from the parameter server,
-    below ``namespace`` (the node's private one by default). Raises ParamError."""
-    return table.read(lambda name, default: rospy.get_param(namespace + name, default))
+def read_params(table):
+    """Values of ``table`` (florence_common.params.ParamTable) from the parameter server, its
+    names resolved with the table's prefix (the node's private namespace by default). Raises
+    ParamError."""
+    return table.read(lambda name, default: rospy.get_param(table.prefix + name, default))
 
 
 def publish_stop(publisher, wait=0.05):

@@ -1,25 +1,20 @@
 """laser_combinator_node: Hokuyo + Kinect fake scan -> /scan_combined (seed 3.7, Tables 9-10).
 
-ROS Parameters:
-    ~frame_id (str, "/base_laser_round_link"): frame of the combined scan (the laser's);
-        both inputs are brought into it through tf. A leading "/" is ignored (tf2).
-    ~kinect_frame_id (str, "/camera_depth_frame"): frame of /kinect_scan used when its
-        header names none.
-    hokuyo_node/max_ang (float, 1.570, rad): the combined scan covers the Hokuyo's beams
-        within [-max_ang, max_ang] (read from the Hokuyo driver's parameter).
-    ~max_age (float, 1.0, s): both inputs must have arrived within this time.
+ROS Parameters: PARAMS and SHARED below (rendered in the README): the combined scan covers the
+Hokuyo's beams within [-max_ang, max_ang], read from the Hokuyo driver's own parameter.
 
-Subscribers:
+ROS Subscribers:
     scan (sensor_msgs/LaserScan): the Hokuyo (upside down, in base_laser_link).
     kinect_scan (sensor_msgs/LaserScan): the Kinect fake laser (pointcloud_to_laserscan).
 
-Publishers:
+ROS Publishers:
     scan_combined (sensor_msgs/LaserScan): on each new Kinect scan while the Hokuyo scan
         is fresh: the Hokuyo's angular grid (cropped to max_ang) in ~frame_id, per angle
         the nearer valid reading of both sensors (+inf where neither has one), header
         stamp, time_increment, scan_time, range_min and intensities of the Hokuyo,
         range_max of the Kinect (seed Table 10). Stale inputs, unknown frames and
         malformed scans give no output and a throttled warning.
+    /diagnostics: the Kinect scan rate, combined scans, the last reason for none.
 """
 
 import math
@@ -29,11 +24,25 @@ import rospy
 import tf2_ros
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import Header
-from tf.transformations import quaternion_matrix
 
+from florence_common.params import FRAME, Param, ParamTable
+from florence_common_ros.convert import to_matrix
+from florence_common_ros.diagnostics import OK, WARN, Diagnostics
+from florence_common_ros.node import read_params, run
 from laser_combinator.combine import Scan, combine
 
 LOG = "laser_combinator: "
+PARAMS = ParamTable(
+    Param("frame_id", FRAME, "/base_laser_round_link", "frame of the combined scan (the laser's); both inputs are "
+          "brought into it through tf (seed)", check=lambda v: None if v else "must name a frame"),
+    Param("kinect_frame_id", FRAME, "/camera_depth_frame", "frame of /kinect_scan when its header names none (seed)"),
+    Param("max_age", float, 1.0, "both inputs must have arrived within this time", unit="s", gt=0),
+)
+SHARED = ParamTable(
+    Param("hokuyo_node/max_ang", float, 1.570, "the Hokuyo's last angle: the combined scan covers its beams within "
+          "[-max_ang, max_ang] (seed)", unit="rad", gt=0),
+    prefix="",
+)
 
 
 def scan_from_msg(msg):
@@ -45,14 +54,6 @@ def scan_from_msg(msg):
         raise ValueError("angle_increment is 0")
     return Scan(msg.angle_min, msg.angle_increment, msg.range_min, msg.range_max,
                 np.asarray(msg.ranges, dtype=np.float32))
-
-
-def matrix(transform):
-    """4x4 homogeneous matrix of a geometry_msgs/Transform."""
-    q, t = transform.rotation, transform.translation
-    m = quaternion_matrix([q.x, q.y, q.z, q.w])
-    m[:3, 3] = (t.x, t.y, t.z)
-    return m
 
 
 def combined_scan(hokuyo_msg, kinect_msg, t_hokuyo, t_kinect, frame_id, max_ang):
@@ -72,20 +73,18 @@ def combined_scan(hokuyo_msg, kinect_msg, t_hokuyo, t_kinect, frame_id, max_ang)
 
 class LaserCombinatorNode:
     def __init__(self):
-        self.frame_id = str(rospy.get_param("~frame_id", "/base_laser_round_link")).lstrip("/")
-        self.kinect_frame_id = str(rospy.get_param("~kinect_frame_id", "/camera_depth_frame")).lstrip("/")
-        self.max_ang = float(rospy.get_param("hokuyo_node/max_ang", 1.570))
-        self.max_age = float(rospy.get_param("~max_age", 1.0))
-        if not self.frame_id:
-            raise ValueError("~frame_id must not be empty")
-        if not (math.isfinite(self.max_ang) and self.max_ang > 0):
-            raise ValueError(f"hokuyo_node/max_ang must be > 0 [rad], got {self.max_ang}")
-        if not (math.isfinite(self.max_age) and self.max_age > 0):
-            raise ValueError(f"~max_age must be > 0 [s], got {self.max_age}")
+        p, shared = read_params(PARAMS), read_params(SHARED)
+        self.frame_id, self.kinect_frame_id, self.max_age = p.frame_id, p.kinect_frame_id, p.max_age
+        self.max_ang = shared.hokuyo_node_max_ang
+        self.combined_count = 0
+        self.last_problem = ""
         self.tf_buffer = tf2_ros.Buffer()
         self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
         self.hokuyo = None  # (LaserScan, receipt time [s])
         self.pub = rospy.Publisher("scan_combined", LaserScan, queue_size=5)
+        self.diag = Diagnostics("laser_combinator")
+        self.kinect_rate = self.diag.frequency("Kinect scan rate", 5.0, 40.0)
+        self.diag.add("Combined scans", self._diagnose)
         self.sub_scan = rospy.Subscriber("scan", LaserScan, self.on_scan, queue_size=2)
         self.sub_kinect = rospy.Subscriber("kinect_scan", LaserScan, self.on_kinect_scan, queue_size=2)
 
@@ -94,17 +93,26 @@ class LaserCombinatorNode:
 
     def transform_to_output(self, frame):
         # tf2 refuses a leading "/" (tf1 style, as older drivers stamp): accept it.
-        return matrix(self.tf_buffer.lookup_transform(self.frame_id, frame.lstrip("/"), rospy.Time(0)).transform)
+        return to_matrix(self.tf_buffer.lookup_transform(self.frame_id, frame.lstrip("/"), rospy.Time(0)))
 
     def on_kinect_scan(self, kinect_msg):
+        self.kinect_rate.tick()
         try:
             out, problem = self.combined(kinect_msg)
         except (ValueError, TypeError, tf2_ros.TransformException) as exc:
             out, problem = None, f"{type(exc).__name__}: {exc}"
         if problem:
+            self.last_problem = problem
             rospy.logwarn_throttle(5.0, LOG + "no combined scan: " + problem)
         if out is not None:
+            self.combined_count += 1
             self.pub.publish(out)
+
+    def _diagnose(self, stat):
+        stat.summary(WARN if self.last_problem else OK, self.last_problem or "combining")
+        self.last_problem = ""
+        stat.add("combined scans", self.combined_count)
+        return stat
 
     def combined(self, kinect_msg):
         """(LaserScan, None), or (None, why there is none)."""
@@ -124,10 +132,4 @@ class LaserCombinatorNode:
 
 
 def main():
-    rospy.init_node("laser_combinator_node")
-    try:
-        LaserCombinatorNode()
-    except (ValueError, TypeError) as exc:
-        rospy.logfatal(LOG + "bad parameters: %s", exc)
-        raise SystemExit(1) from exc
-    rospy.spin()
+    run(LaserCombinatorNode, "laser_combinator_node")
