@@ -4,10 +4,7 @@ Ranges come from the latest ~ranges message (a simulator publishes what the
 sensor would see), else from a fixed pattern. Point hokuyo_node's ~port at
 ~link (or at the printed pty).
 
-ROS Parameters:
-    ~link (str, ""): symlink made to point at the pty (e.g. /tmp/hokuyo); "" for none.
-    ~serial_number (str, "H0000001"): answered in VV's SERI line.
-    ~default_range (float, 2.0, m): range of every step until ~ranges arrives.
+ROS Parameters: PARAMS below (rendered in the README).
 
 ROS Subscribers:
     ~ranges (std_msgs/Float32MultiArray): ranges [m] of the sensor's steps 0..768 in step order
@@ -16,33 +13,37 @@ ROS Subscribers:
 Also sets ~pty (str) to the pseudo-terminal's path and prints it.
 """
 
-import sys
 import threading
 
 import rospy
 from std_msgs.msg import Float32MultiArray
 
+from florence_common.params import Param, ParamTable
 from florence_common.pty_device import PtyDevice
+from florence_common_ros.node import read_params, run
 from hokuyo_node import scip_spec as spec
 from hokuyo_node.urg_emulator import STEPS, UrgEmulator
+
+PARAMS = ParamTable(
+    Param("link", str, "", 'symlink made to point at the pty (e.g. /tmp/hokuyo); "" for none'),
+    Param("serial_number", str, "H0000001", "answered in VV's SERI line"),
+    Param("default_range", float, 2.0, "range of every step until ~ranges arrives", unit="m", ge=0.02, le=5.6),
+)
 
 
 class UrgEmulatorNode:
     def __init__(self):
-        link = rospy.get_param("~link", "") or None
-        serial_number = rospy.get_param("~serial_number", "H0000001")
-        default_range = float(rospy.get_param("~default_range", 2.0))
-        if not 0.02 <= default_range <= 5.6:
-            rospy.logfatal("urg_emulator: ~default_range must be within 0.02..5.6 m")
-            sys.exit(1)
+        p = read_params(PARAMS)
         self.lock = threading.Lock()
-        self.values = [int(default_range * 1000)] * STEPS  # [mm]
-        self.core = UrgEmulator(ranges=self._ranges, serial_number=serial_number)
-        self.device = PtyDevice(self.core, link=link).start()
+        self.values = [int(p.default_range * 1000)] * STEPS  # [mm]
+        self.core = UrgEmulator(ranges=self._ranges, serial_number=p.serial_number)
+        self.device = PtyDevice(self.core, link=p.link or None).start()
         rospy.set_param("~pty", self.device.path)
         print(f"urg_emulator: serving on {self.device.port}", flush=True)
         rospy.Subscriber("~ranges", Float32MultiArray, self._on_ranges, queue_size=1)
-        rospy.on_shutdown(self.device.close)
+
+    def shutdown(self):
+        self.device.close()
 
     def _ranges(self, _now):
         with self.lock:
@@ -62,6 +63,4 @@ class UrgEmulatorNode:
 
 
 def main():
-    rospy.init_node("urg_emulator")
-    UrgEmulatorNode()
-    rospy.spin()
+    run(UrgEmulatorNode, "urg_emulator")

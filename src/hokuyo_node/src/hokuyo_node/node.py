@@ -4,25 +4,9 @@ The scan is published as the sensor measures it, counter-clockwise from
 angle_min to angle_max in frame_id: an upside-down mounting is a matter of tf
 (base_laser_link is rolled by pi), never of reordering the ranges.
 
-ROS Parameters:
-    ~port (str, "/dev/ttyACM0"): serial port of the sensor.
-    ~baud (int, 115200, baud): serial speed (ignored by USB models).
-    ~min_ang (float, -pi/2, rad): angle of the first range, rounded inwards to a step.
-    ~max_ang (float, pi/2, rad): angle of the last range, rounded inwards to a step.
-    ~cluster (int, 1): adjacent steps merged into one range (the sensor keeps the nearest), 1..99.
-    ~skip (int, 0): scans left out between two published ones, 0..9.
-    ~intensity (bool, false): publish intensities; refused (error, ranges only) on models
-        without the ME command, such as the URG-04LX.
-    ~frame_id (str, "laser"): frame of the scan.
-    ~time_offset (float, 0.0, s): added to every time stamp (latency correction).
-    ~calibrate_time (bool, true): map the sensor's clock to the host's (TM command) on every
-        connect, so stamps follow the sensor's clock instead of the arrival time.
-    ~allow_unsafe_settings (bool, false): send ~min_ang/~max_ang to the sensor even beyond its
-        measurable range (the sensor may refuse); otherwise they are clamped with a warning.
-    ~reconnect_interval (float, 1.0, s): wait between attempts to reopen a lost port.
-    ~diagnostic_period (float, 1.0, s): read by diagnostic_updater.
-  Set by the node once the sensor answered PP: ~min_ang_limit, ~max_ang_limit [rad],
-  ~min_range, ~max_range [m].
+ROS Parameters: PARAMS below (rendered in the README); ~diagnostic_period (float, 1.0, s) is
+read by diagnostic_updater. Set by the node once the sensor answered PP: ~min_ang_limit,
+~max_ang_limit [rad], ~min_range, ~max_range [m].
 
 ROS Publishers:
     scan (sensor_msgs/LaserScan): ranges [m]; error codes (readings below the sensor's DMIN) as
@@ -34,40 +18,46 @@ ROS Services:
 """
 
 import math
-import sys
 import threading
 import time
 
-import diagnostic_updater
 import numpy as np
 import rospy
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from diagnostic_msgs.srv import SelfTest, SelfTestResponse
 from sensor_msgs.msg import LaserScan
 
+from florence_common.params import FRAME, Param, ParamTable
+from florence_common_ros.diagnostics import Diagnostics
+from florence_common_ros.node import read_params, run
 from hokuyo_node import scip
 from hokuyo_node.driver import PORT_ERRORS, HokuyoDriver, ScipTimeout
+
+PARAMS = ParamTable(
+    Param("port", str, "/dev/ttyACM0", "serial port of the sensor"),
+    Param("baud", int, 115200, "serial speed (ignored by USB models)", unit="baud", gt=0),
+    Param("min_ang", float, -math.pi / 2, "angle of the first range, rounded inwards to a step", unit="rad"),
+    Param("max_ang", float, math.pi / 2, "angle of the last range, rounded inwards to a step (above ~min_ang)",
+          unit="rad"),
+    Param("cluster", int, 1, "adjacent steps merged into one range (the sensor keeps the nearest)", ge=1, le=99),
+    Param("skip", int, 0, "scans left out between two published ones", ge=0, le=9),
+    Param("intensity", bool, False, "publish intensities; refused (error, ranges only) on models without the ME "
+          "command, such as the URG-04LX"),
+    Param("frame_id", FRAME, "laser", "frame of the scan"),
+    Param("time_offset", float, 0.0, "added to every time stamp (latency correction)", unit="s"),
+    Param("calibrate_time", bool, True, "map the sensor's clock to the host's (TM command) on every connect, so "
+          "stamps follow the sensor's clock instead of the arrival time"),
+    Param("allow_unsafe_settings", bool, False, "send ~min_ang/~max_ang even beyond the measurable range (the "
+          "sensor may refuse); otherwise they are clamped with a warning"),
+    Param("reconnect_interval", float, 1.0, "wait between attempts to reopen a lost port", unit="s", gt=0),
+)
 
 
 class HokuyoNode:
     def __init__(self):
-        p = {name: rospy.get_param("~" + name, default) for name, default in (
-            ("port", "/dev/ttyACM0"), ("baud", 115200), ("min_ang", -math.pi / 2), ("max_ang", math.pi / 2),
-            ("cluster", 1), ("skip", 0), ("intensity", False), ("frame_id", "laser"), ("time_offset", 0.0),
-            ("calibrate_time", True), ("allow_unsafe_settings", False), ("reconnect_interval", 1.0))}
-        problems = []
-        if not 1 <= int(p["cluster"]) <= 99:
-            problems.append(f"~cluster {p['cluster']} outside 1..99")
-        if not 0 <= int(p["skip"]) <= 9:
-            problems.append(f"~skip {p['skip']} outside 0..9")
-        if not p["min_ang"] < p["max_ang"]:
-            problems.append(f"~min_ang {p['min_ang']} must be below ~max_ang {p['max_ang']}")
-        if not p["reconnect_interval"] > 0:
-            problems.append("~reconnect_interval must be > 0")
-        if problems:
-            for problem in problems:
-                rospy.logfatal("hokuyo_node: %s", problem)
-            sys.exit(1)
+        p = read_params(PARAMS)
+        if not p.min_ang < p.max_ang:
+            raise ValueError(f"~min_ang {p.min_ang} must be below ~max_ang {p.max_ang} [rad]")
         self.p = p
         self.driver = HokuyoDriver(p["port"], int(p["baud"]))
         self.layout = None
@@ -84,18 +74,12 @@ class HokuyoNode:
         self._stop = threading.Event()
 
         self.scan_pub = rospy.Publisher("scan", LaserScan, queue_size=5)
-        self.updater = diagnostic_updater.Updater()
-        self.updater.setHardwareID(f"Hokuyo on {p['port']}")
-        self.frequency_bounds = {"min": 0.0, "max": 0.0}
-        self.frequency = diagnostic_updater.FrequencyStatus(
-            diagnostic_updater.FrequencyStatusParam(self.frequency_bounds, 0.1, 10), "Scan rate")
-        self.updater.add("Connection", self._diag_connection)
-        self.updater.add(self.frequency)
-        self.updater.add("Errors", self._diag_errors)
+        self.diag = Diagnostics(f"Hokuyo on {p['port']}")
+        self.diag.add("Connection", self._diag_connection)
+        self.frequency = self.diag.frequency("Scan rate", 0.0, 0.0)  # bounds set once the sensor told its rate
+        self.diag.add("Errors", self._diag_errors)
         rospy.Service("~self_test", SelfTest, self._on_self_test)
-        self.diag_timer = rospy.Timer(rospy.Duration(0.1), lambda _e: self.updater.update())
         self.thread = threading.Thread(target=self._run, name="hokuyo", daemon=True)
-        rospy.on_shutdown(self.shutdown)
         self.thread.start()
 
     # --- session ------------------------------------------------------------------------------------
@@ -120,14 +104,14 @@ class HokuyoNode:
         self.steps = (first, last, int(p["cluster"]), int(p["skip"]))
         self.layout = g.layout(*self.steps)
         rate = 1.0 / self.layout["scan_time"]
-        self.frequency_bounds["min"] = self.frequency_bounds["max"] = rate
+        self.frequency.params.freq_bound["min"] = self.frequency.params.freq_bound["max"] = rate
 
     def _run(self):
         while not self._stop.is_set() and not rospy.is_shutdown():
             try:
                 self.driver.open()
                 self._configure()
-                self.updater.setHardwareID(self.driver.version.get("SERI", self.p["port"]))
+                self.diag.updater.setHardwareID(self.driver.version.get("SERI", self.p["port"]))
                 if self.p["calibrate_time"]:
                     self.clock_offset = self.driver.calibrate_time()
                 self.driver.laser_on()
@@ -241,7 +225,7 @@ class HokuyoNode:
 
     def shutdown(self):
         self._stop.set()
-        self.diag_timer.shutdown()
+        self.diag.shutdown()
         self.thread.join(5.0)
         try:
             self.driver.stop()
@@ -251,6 +235,4 @@ class HokuyoNode:
 
 
 def main():
-    rospy.init_node("hokuyo_node")
-    HokuyoNode()
-    rospy.spin()
+    run(HokuyoNode, "hokuyo_node")
