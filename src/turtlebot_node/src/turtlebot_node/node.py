@@ -1,27 +1,7 @@
 """turtlebot_node: the iRobot Create base of the TurtleBot over its Open Interface (seed 2.3, Table 5).
 
-ROS Parameters:
-    ~port (str, "/dev/ttyUSB0"): serial port of the Create.
-    ~baud (int, 57600, baud): serial speed (the OI default).
-    ~operation_mode (int, 3): OI mode entered on start-up and after every reconnect:
-        1 passive, 2 safe, 3 full.
-    ~update_rate (float, 10.0, Hz): rate of ~sensor_state, odom, imu/data and tf.
-    ~drive_mode (str, "twist"): "twist" sends Drive Direct (145) wheel velocities,
-        "drive" sends Drive (137) velocity and radius.
-    ~cmd_vel_timeout (float, 0.6, s): motors stop when no cmd_vel arrived for this long.
-    ~stop_motors_on_bump (bool, true): while a bumper is pressed forward motion is
-        refused (turning and reversing stay allowed).
-    ~has_gyro (bool, true): a gyro sits on the cargo-bay analog input; odometry takes
-        its heading from it and imu/data is published.
-    ~gyro_measurement_range (float, 150.0, deg/s): full-scale rate of the gyro.
-    ~gyro_scale_correction (float, 1.35): calibration factor of the gyro rate.
-    ~odom_angular_scale_correction (float, 1.0): factor on the Create's angle.
-    ~odom_linear_scale_correction (float, 1.0): factor on the Create's distance.
-    ~publish_tf (bool, false): broadcast odom_frame -> base_frame.
-    ~odom_frame (str, "odom"), ~base_frame (str, "base_footprint"), ~gyro_frame (str, "gyro_link").
-    ~reconnect_interval (float, 1.0, s): wait between attempts to reopen a lost port.
-    ~stall_timeout (float, 1.0, s): with no sensor frame for this long the OI is set up again.
-    ~diagnostic_period (float, 1.0, s): read by diagnostic_updater.
+ROS Parameters: PARAMS below (rendered in the README); ~diagnostic_period (float, 1.0, s) is
+read by diagnostic_updater.
 
 ROS Publishers:
     ~sensor_state (turtlebot_node/TurtlebotSensorState): latest sensors at update_rate;
@@ -40,18 +20,20 @@ ROS Services:
 """
 
 import math
-import sys
 import threading
 import time
 
-import diagnostic_updater
 import rospy
 import tf2_ros
 from diagnostic_msgs.msg import DiagnosticStatus
-from geometry_msgs.msg import Quaternion, TransformStamped, Twist
+from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry as OdometryMsg
 from sensor_msgs.msg import Imu
 
+from florence_common.params import FRAME, Param, ParamTable
+from florence_common_ros.convert import quaternion_msg, transform_stamped
+from florence_common_ros.diagnostics import Diagnostics
+from florence_common_ros.node import read_params, run
 from turtlebot_node import create_oi
 from turtlebot_node import oi_spec as oi
 from turtlebot_node.msg import TurtlebotSensorState
@@ -73,8 +55,30 @@ ODOM_TWIST_COVARIANCE = (1e-3, 1e-3, 1e6, 1e6, 1e6, 1e-3)
 IMU_COVARIANCE = [1e6, 0, 0, 0, 1e6, 0, 0, 0, 1e-6]
 
 
-def yaw_quaternion(yaw):
-    return Quaternion(0.0, 0.0, math.sin(yaw / 2.0), math.cos(yaw / 2.0))
+PARAMS = ParamTable(
+    Param("port", str, "/dev/ttyUSB0", "serial port of the Create"),
+    Param("baud", int, 57600, "serial speed (the OI default)", unit="baud", choices=tuple(sorted(oi.BAUD_CODES))),
+    Param("operation_mode", int, oi.MODE_FULL, "OI mode entered on start-up and after every reconnect: 1 passive, "
+          "2 safe, 3 full", choices=tuple(sorted(oi.MODE_OPCODES))),
+    Param("update_rate", float, 10.0, "rate of ~sensor_state, odom, imu/data and tf", unit="Hz", gt=0),
+    Param("drive_mode", str, "twist", '"twist" sends Drive Direct (145) wheel velocities, "drive" sends Drive (137) '
+          "velocity and radius", choices=DRIVE_MODES),
+    Param("cmd_vel_timeout", float, 0.6, "the motors stop when no cmd_vel arrived for this long", unit="s", gt=0),
+    Param("stop_motors_on_bump", bool, True, "while a bumper is pressed forward motion is refused (turning and "
+          "reversing stay allowed)"),
+    Param("has_gyro", bool, True, "a gyro sits on the cargo-bay analog input; odometry takes its heading from it "
+          "and imu/data is published"),
+    Param("gyro_measurement_range", float, 150.0, "full-scale rate of the gyro", unit="deg/s", gt=0),
+    Param("gyro_scale_correction", float, 1.35, "calibration factor of the gyro rate", gt=0),
+    Param("odom_angular_scale_correction", float, 1.0, "factor on the Create's angle", gt=0),
+    Param("odom_linear_scale_correction", float, 1.0, "factor on the Create's distance", gt=0),
+    Param("publish_tf", bool, False, "broadcast odom_frame -> base_frame"),
+    Param("odom_frame", FRAME, "odom", "frame of the odometry"),
+    Param("base_frame", FRAME, "base_footprint", "the robot's frame"),
+    Param("gyro_frame", FRAME, "gyro_link", "frame of imu/data"),
+    Param("reconnect_interval", float, 1.0, "wait between attempts to reopen a lost port", unit="s", gt=0),
+    Param("stall_timeout", float, 1.0, "with no sensor frame for this long the OI is set up again", unit="s", gt=0),
+)
 
 
 def diagonal(values):
@@ -86,29 +90,7 @@ def diagonal(values):
 
 class TurtlebotNode:
     def __init__(self):
-        p = {name: rospy.get_param("~" + name, default) for name, default in (
-            ("port", "/dev/ttyUSB0"), ("baud", 57600), ("operation_mode", oi.MODE_FULL), ("update_rate", 10.0),
-            ("drive_mode", "twist"), ("cmd_vel_timeout", 0.6), ("stop_motors_on_bump", True), ("has_gyro", True),
-            ("gyro_measurement_range", 150.0), ("gyro_scale_correction", 1.35),
-            ("odom_angular_scale_correction", 1.0), ("odom_linear_scale_correction", 1.0), ("publish_tf", False),
-            ("odom_frame", "odom"), ("base_frame", "base_footprint"), ("gyro_frame", "gyro_link"),
-            ("reconnect_interval", 1.0), ("stall_timeout", 1.0))}
-        problems = []
-        if int(p["baud"]) not in oi.BAUD_CODES:
-            problems.append(f"~baud {p['baud']} is not an OI baud rate {sorted(oi.BAUD_CODES)}")
-        if p["operation_mode"] not in oi.MODE_OPCODES:
-            problems.append(f"~operation_mode {p['operation_mode']} is not 1 (passive), 2 (safe) or 3 (full)")
-        if p["drive_mode"] not in DRIVE_MODES:
-            problems.append(f"~drive_mode {p['drive_mode']!r} is not one of {DRIVE_MODES}")
-        for name in ("update_rate", "cmd_vel_timeout", "gyro_measurement_range", "gyro_scale_correction",
-                     "odom_angular_scale_correction", "odom_linear_scale_correction", "reconnect_interval",
-                     "stall_timeout"):
-            if not float(p[name]) > 0.0:
-                problems.append(f"~{name} must be > 0, got {p[name]}")
-        if problems:
-            for problem in problems:
-                rospy.logfatal("turtlebot_node: %s", problem)
-            sys.exit(1)
+        p = read_params(PARAMS)
         self.p = p
         self.lock = threading.Lock()
         gyro = Gyro(p["gyro_measurement_range"], p["gyro_scale_correction"]) if p["has_gyro"] else None
@@ -129,11 +111,10 @@ class TurtlebotNode:
         self.odom_pub = rospy.Publisher("odom", OdometryMsg, queue_size=5)
         self.imu_pub = rospy.Publisher("imu/data", Imu, queue_size=5) if p["has_gyro"] else None
         self.tf_broadcaster = tf2_ros.TransformBroadcaster() if p["publish_tf"] else None
-        self.updater = diagnostic_updater.Updater()
-        self.updater.setHardwareID(f"iRobot Create on {p['port']}")
-        self.updater.add("Battery", self._diag_battery)
-        self.updater.add("Open Interface", self._diag_mode)
-        self.updater.add("Serial link", self._diag_serial)
+        self.diag = Diagnostics(f"iRobot Create on {p['port']}")
+        self.diag.add("Battery", self._diag_battery)
+        self.diag.add("Open Interface", self._diag_mode)
+        self.diag.add("Serial link", self._diag_serial)
         self._last_error_total = 0
 
         self.link = CreateLink(p["port"], int(p["baud"]), p["operation_mode"], self._on_frame,
@@ -141,8 +122,6 @@ class TurtlebotNode:
         rospy.Service("~set_operation_mode", SetTurtlebotMode, self._set_mode)
         rospy.Service("~set_digital_outputs", SetDigitalOutputs, self._set_outputs)
         rospy.Subscriber("cmd_vel", Twist, self._on_cmd_vel, queue_size=1)
-        self.diag_timer = rospy.Timer(rospy.Duration(0.1), lambda _e: self.updater.update())
-        rospy.on_shutdown(self.shutdown)
         self.link.start()
         rospy.loginfo("turtlebot_node: driving the Create on %s at %d baud, mode %s", p["port"], p["baud"],
                       oi.MODE_NAMES[p["operation_mode"]])
@@ -232,7 +211,7 @@ class TurtlebotNode:
         odom.child_frame_id = self.p["base_frame"]
         odom.pose.pose.position.x = pose.x
         odom.pose.pose.position.y = pose.y
-        odom.pose.pose.orientation = yaw_quaternion(pose.theta)
+        odom.pose.pose.orientation = quaternion_msg(pose.theta)
         odom.pose.covariance = diagonal(ODOM_POSE_COVARIANCE)
         odom.twist.twist.linear.x = pose.linear
         odom.twist.twist.angular.z = pose.angular
@@ -240,20 +219,14 @@ class TurtlebotNode:
         self.odom_pub.publish(odom)
 
         if self.tf_broadcaster is not None:
-            tf = TransformStamped()
-            tf.header.stamp = stamp
-            tf.header.frame_id = self.p["odom_frame"]
-            tf.child_frame_id = self.p["base_frame"]
-            tf.transform.translation.x = pose.x
-            tf.transform.translation.y = pose.y
-            tf.transform.rotation = odom.pose.pose.orientation
-            self.tf_broadcaster.sendTransform(tf)
+            self.tf_broadcaster.sendTransform(transform_stamped(stamp, self.p["odom_frame"], self.p["base_frame"],
+                                                                pose.x, pose.y, pose.theta))
 
         if self.imu_pub is not None and self.odometry.gyro_rate is not None:
             imu = Imu()
             imu.header.stamp = stamp
             imu.header.frame_id = self.p["gyro_frame"]
-            imu.orientation = yaw_quaternion(self.odometry.gyro.orientation)
+            imu.orientation = quaternion_msg(self.odometry.gyro.orientation)
             imu.orientation_covariance = IMU_COVARIANCE
             imu.angular_velocity.z = self.odometry.gyro_rate
             imu.angular_velocity_covariance = IMU_COVARIANCE
@@ -314,11 +287,9 @@ class TurtlebotNode:
 
     def shutdown(self):
         """Stop the motors, then close the port."""
-        self.diag_timer.shutdown()
+        self.diag.shutdown()
         self.link.stop(safe_bytes=self._wheel_command(0.0, 0.0))
 
 
 def main():
-    rospy.init_node("turtlebot_node")
-    TurtlebotNode()
-    rospy.spin()
+    run(TurtlebotNode, "turtlebot_node")
