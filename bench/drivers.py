@@ -30,9 +30,15 @@ from florence_common.processes import ManagedProcess, RosMaster, wait_for
 from florence_common.pty_device import PtyDevice
 from hokuyo_node import scip
 
-ROOT = Path(__file__).resolve().parents[1]
-RESULTS = ROOT / "bench" / "results" / "drivers.json"
+RESULTS = Path(__file__).resolve().parent / "results" / "drivers.json"
 CLOCK_TICKS = os.sysconf("SC_CLK_TCK")
+
+
+def executable(package, relative):
+    """Path of a package's executable (rospkg: wherever the package is)."""
+    import rospkg
+
+    return str(Path(rospkg.RosPack().get_path(package)) / relative)
 
 
 def md_frame():
@@ -108,13 +114,13 @@ def main():
 
         create._stream_frame = counted_frame
         results["turtlebot_node"] = bench_node(
-            master, "turtlebot_node", [str(ROOT / "src/turtlebot_node/scripts/turtlebot_node.py"),
+            master, "turtlebot_node", [executable("turtlebot_node", "scripts/turtlebot_node.py"),
                                        "__name:=turtlebot_node", "__ns:=/bench"],
             create, lambda: create.streaming and len(frames) > 10, lambda: len(frames),
             ["/bench/odom", "/bench/turtlebot_node/sensor_state", "/bench/imu/data"])
         urg = UrgEmulator()
         results["hokuyo_node"] = bench_node(
-            master, "hokuyo_node", [str(ROOT / "src/hokuyo_node/nodes/hokuyo_node"), "__name:=hokuyo_node",
+            master, "hokuyo_node", [executable("hokuyo_node", "nodes/hokuyo_node"), "__name:=hokuyo_node",
                                     "__ns:=/bench", "_min_ang:=-1.570", "_max_ang:=1.570"],
             urg, lambda: urg.scans_sent > 5, lambda: urg.scans_sent, ["/bench/scan"])
     finally:
