@@ -6,9 +6,10 @@ import math
 import numpy as np
 import pytest
 from amcl.localizer import AmclConfig, Localizer, map_to_odom
-from amcl.motion import angle_diff
 from amcl.particle_filter import FilterParams
 from amcl.sensor import OccupancyMap
+
+from florence_common import angles
 
 RES = 0.05
 LASER_XY = np.array([0.06, 0.0])
@@ -132,7 +133,7 @@ def drive(loc, start_pose, steps, rng, odom_noise=0.01, scan_noise=0.01):
         scan = simulate_scan(loc.map, true, scan_noise, rng)
         result = loc.process_scan(odom, LASER_XY, BEARINGS, scan, 0.02, 5.6)
         if result.updated:
-            errors.append((math.hypot(*(result.pose[:2] - true[:2])), abs(angle_diff(result.pose[2], true[2]))))
+            errors.append((math.hypot(*(result.pose[:2] - true[:2])), abs(angles.diff(result.pose[2], true[2]))))
     return np.array(errors), true
 
 
@@ -168,7 +169,7 @@ def test_map_to_odom_composes():
     # map_T_odom * odom_pose == map_pose
     assert t[0] + c * odom_pose[0] - s * odom_pose[1] == pytest.approx(map_pose[0])
     assert t[1] + s * odom_pose[0] + c * odom_pose[1] == pytest.approx(map_pose[1])
-    assert angle_diff(t[2] + odom_pose[2], map_pose[2]) == pytest.approx(0.0)
+    assert angles.diff(t[2] + odom_pose[2], map_pose[2]) == pytest.approx(0.0)
 
 
 def test_occupancy_map_rejects_bad_maps():

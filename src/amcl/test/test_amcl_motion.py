@@ -4,7 +4,9 @@ import math
 
 import numpy as np
 import pytest
-from amcl.motion import angle_diff, decompose, noise_scales, sample_motion
+from amcl.motion import decompose, noise_scales, sample_motion
+
+from florence_common import angles
 
 ALPHAS = (0.2, 0.2, 0.2, 0.2, 0.2)
 
@@ -19,9 +21,9 @@ ALPHAS = (0.2, 0.2, 0.2, 0.2, 0.2)
 ])
 def test_decompose(old, new, expected):
     rot1, trans, rot2 = decompose(np.array(old, float), np.array(new, float))
-    assert abs(angle_diff(rot1, expected[0])) < 1e-9
+    assert abs(angles.diff(rot1, expected[0])) < 1e-9
     assert trans == pytest.approx(expected[1])
-    assert abs(angle_diff(rot2, expected[2])) < 1e-9
+    assert abs(angles.diff(rot2, expected[2])) < 1e-9
 
 
 def test_zero_alphas_move_exactly():
@@ -70,7 +72,7 @@ def test_reversing_is_not_a_half_turn_of_noise():
     rng = np.random.default_rng(1)
     out = sample_motion(np.zeros((5000, 3)), np.zeros(3), np.array([-0.3, 0.0, 0.0]), ALPHAS, "diff", rng)
     assert np.mean(out[:, 0]) == pytest.approx(-0.3, abs=0.01)
-    assert np.max(np.abs(angle_diff(out[:, 2], 0.0))) < 0.5
+    assert np.max(np.abs(angles.diff(out[:, 2], 0.0))) < 0.5
 
 
 def test_unknown_model_is_rejected():

@@ -24,9 +24,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from amcl.motion import MODELS, angle_diff, sample_motion
+from amcl.motion import MODELS, sample_motion
+from amcl.params import FILTER
 from amcl.particle_filter import FilterParams, ParticleFilter
 from amcl.sensor import LASER_MODELS, LaserParams, OccupancyMap, sensor_weights, subsample_beams
+from florence_common import angles
 
 log = logging.getLogger(__name__)
 
@@ -72,35 +74,27 @@ class AmclConfig:
 
 
 def config_from_params(get):
-    """AmclConfig from ROS amcl parameters: ``get(name, default)`` returns ``~name`` (ROS names and defaults).
+    """AmclConfig from ROS amcl parameters: ``get(name, default)`` returns ``~name`` (ROS names and defaults,
+    amcl.params.FILTER).
 
     The node passes ``rospy.get_param``; the offline evaluation passes a launch file's ``<param>`` values.
     Raises ValueError naming a parameter that is out of range.
     """
+    p = FILTER.read(get)
     filt = FilterParams(
-        min_particles=int(get("min_particles", 100)), max_particles=int(get("max_particles", 5000)),
-        kld_err=float(get("kld_err", 0.01)), kld_z=float(get("kld_z", 0.99)),
-        recovery_alpha_slow=float(get("recovery_alpha_slow", 0.0)),
-        recovery_alpha_fast=float(get("recovery_alpha_fast", 0.0)),
-        resample_interval=int(get("resample_interval", 2)),
-        selective_resampling=bool(get("selective_resampling", False)),
-        recovery_mean_likelihood=bool(get("recovery_mean_likelihood", False)),
-        recovery_wait_converged=bool(get("recovery_wait_converged", False)))
+        min_particles=p.min_particles, max_particles=p.max_particles, kld_err=p.kld_err, kld_z=p.kld_z,
+        recovery_alpha_slow=p.recovery_alpha_slow, recovery_alpha_fast=p.recovery_alpha_fast,
+        resample_interval=p.resample_interval, selective_resampling=p.selective_resampling,
+        recovery_mean_likelihood=p.recovery_mean_likelihood, recovery_wait_converged=p.recovery_wait_converged)
     laser = LaserParams(
-        z_hit=float(get("laser_z_hit", 0.95)), z_short=float(get("laser_z_short", 0.1)),
-        z_max=float(get("laser_z_max", 0.05)), z_rand=float(get("laser_z_rand", 0.05)),
-        sigma_hit=float(get("laser_sigma_hit", 0.2)), lambda_short=float(get("laser_lambda_short", 0.1)),
-        likelihood_max_dist=float(get("laser_likelihood_max_dist", 2.0)),
-        interpolate=bool(get("laser_likelihood_interpolate", False)))
+        z_hit=p.laser_z_hit, z_short=p.laser_z_short, z_max=p.laser_z_max, z_rand=p.laser_z_rand,
+        sigma_hit=p.laser_sigma_hit, lambda_short=p.laser_lambda_short,
+        likelihood_max_dist=p.laser_likelihood_max_dist, interpolate=p.laser_likelihood_interpolate)
     config = AmclConfig(
-        filter=filt, laser=laser,
-        laser_model_type=str(get("laser_model_type", "likelihood_field")),
-        laser_max_beams=int(get("laser_max_beams", 30)),
-        laser_min_range=float(get("laser_min_range", -1.0)), laser_max_range=float(get("laser_max_range", -1.0)),
-        odom_model_type=str(get("odom_model_type", "diff")),
-        odom_alphas=tuple(float(get(f"odom_alpha{i}", 0.2)) for i in range(1, 6)),
-        update_min_d=float(get("update_min_d", 0.2)), update_min_a=float(get("update_min_a", math.pi / 6.0)),
-        off_free_weight=float(get("off_free_weight", 1.0)))
+        filter=filt, laser=laser, laser_model_type=p.laser_model_type, laser_max_beams=p.laser_max_beams,
+        laser_min_range=p.laser_min_range, laser_max_range=p.laser_max_range, odom_model_type=p.odom_model_type,
+        odom_alphas=tuple(p[f"odom_alpha{i}"] for i in range(1, 6)), update_min_d=p.update_min_d,
+        update_min_a=p.update_min_a, off_free_weight=p.off_free_weight)
     config.validate()
     return config
 
@@ -168,7 +162,7 @@ class Localizer:
     def moved_enough(self, odom_pose):
         d = np.asarray(odom_pose, dtype=float) - self.odom_pose
         return (abs(d[0]) > self.config.update_min_d or abs(d[1]) > self.config.update_min_d
-                or abs(angle_diff(odom_pose[2], self.odom_pose[2])) > self.config.update_min_a)
+                or abs(angles.diff(odom_pose[2], self.odom_pose[2])) > self.config.update_min_a)
 
     def unusable(self, odom_pose, bearings, ranges):
         """Why a scan cannot be used ("" if it can)."""
@@ -230,6 +224,6 @@ def map_to_odom(map_pose, odom_pose):
     """The map -> odom transform (x, y, yaw) from the base's pose in map and in odom."""
     mx, my, ma = map_pose
     ox, oy, oa = odom_pose
-    yaw = float(angle_diff(ma, oa))
+    yaw = float(angles.diff(ma, oa))
     c, s = math.cos(yaw), math.sin(yaw)
     return np.array([mx - (c * ox - s * oy), my - (s * ox + c * oy), yaw])

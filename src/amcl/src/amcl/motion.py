@@ -20,16 +20,9 @@ not look like a half-turn.
 
 import numpy as np
 
+from florence_common import angles
+
 MODELS = ("diff", "diff-corrected")
-
-
-def angle_diff(a, b):
-    """Smallest signed angle a - b, in [-pi, pi) [rad] (works on arrays)."""
-    return (np.asarray(a) - np.asarray(b) + np.pi) % (2.0 * np.pi) - np.pi
-
-
-def normalize_angle(a):
-    return angle_diff(a, 0.0)
 
 
 def decompose(old_odom, new_odom):
@@ -37,8 +30,8 @@ def decompose(old_odom, new_odom):
     dx, dy = new_odom[0] - old_odom[0], new_odom[1] - old_odom[1]
     trans = float(np.hypot(dx, dy))
     # Below 1 cm the heading of the step is noise: ROS treats it as a pure rotation.
-    rot1 = 0.0 if trans < 0.01 else float(angle_diff(np.arctan2(dy, dx), old_odom[2]))
-    rot2 = float(angle_diff(angle_diff(new_odom[2], old_odom[2]), rot1))
+    rot1 = 0.0 if trans < 0.01 else float(angles.diff(np.arctan2(dy, dx), old_odom[2]))
+    rot2 = float(angles.diff(angles.diff(new_odom[2], old_odom[2]), rot1))
     return rot1, trans, rot2
 
 
@@ -46,8 +39,8 @@ def noise_scales(old_odom, new_odom, alphas, corrected):
     """The three standard deviations (rot1, trans, rot2) the model samples with."""
     a1, a2, a3, a4 = alphas[:4]
     rot1, trans, rot2 = decompose(old_odom, new_odom)
-    rot1_n = min(abs(angle_diff(rot1, 0.0)), abs(angle_diff(rot1, np.pi)))
-    rot2_n = min(abs(angle_diff(rot2, 0.0)), abs(angle_diff(rot2, np.pi)))
+    rot1_n = min(abs(angles.diff(rot1, 0.0)), abs(angles.diff(rot1, np.pi)))
+    rot2_n = min(abs(angles.diff(rot2, 0.0)), abs(angles.diff(rot2, np.pi)))
     terms = np.array([a1 * rot1_n**2 + a2 * trans**2,
                       a3 * trans**2 + a4 * rot1_n**2 + a4 * rot2_n**2,
                       a1 * rot2_n**2 + a2 * trans**2])
@@ -67,12 +60,12 @@ def sample_motion(particles, old_odom, new_odom, alphas, model="diff", rng=None)
     n = particles.shape[0]
     rot1, trans, rot2 = decompose(old_odom, new_odom)
     s_rot1, s_trans, s_rot2 = noise_scales(old_odom, new_odom, alphas, model == "diff-corrected")
-    rot1_hat = angle_diff(rot1, rng.normal(0.0, 1.0, n) * s_rot1)
+    rot1_hat = angles.diff(rot1, rng.normal(0.0, 1.0, n) * s_rot1)
     trans_hat = trans - rng.normal(0.0, 1.0, n) * s_trans
-    rot2_hat = angle_diff(rot2, rng.normal(0.0, 1.0, n) * s_rot2)
+    rot2_hat = angles.diff(rot2, rng.normal(0.0, 1.0, n) * s_rot2)
     out = np.empty_like(particles)
     heading = particles[:, 2] + rot1_hat
     out[:, 0] = particles[:, 0] + trans_hat * np.cos(heading)
     out[:, 1] = particles[:, 1] + trans_hat * np.sin(heading)
-    out[:, 2] = normalize_angle(heading + rot2_hat)
+    out[:, 2] = angles.wrap(heading + rot2_hat)
     return out

@@ -1,75 +1,32 @@
 """amcl node: the ROS amcl interface around :class:`amcl.localizer.Localizer`.
 
-ROS Parameters (ROS amcl names and defaults):
-    ~min_particles (int, 100): fewest particles.
-    ~max_particles (int, 5000): most particles.
-    ~kld_err (double, 0.01): KLD-sampling error bound.
-    ~kld_z (double, 0.99): KLD-sampling normal quantile (used as given, like ROS).
-    ~update_min_d (double, 0.2, m): translation in x or y before a filter update.
-    ~update_min_a (double, pi/6, rad): rotation before a filter update.
-    ~resample_interval (int, 2): filter updates per resampling.
-    ~selective_resampling (bool, false): resample only when N_eff < N/2.
-    ~transform_tolerance (double, 0.1, s): map->odom is post-dated by this much.
-    ~recovery_alpha_slow (double, 0.0): slow average decay (0 disables random poses).
-    ~recovery_alpha_fast (double, 0.0): fast average decay.
-    ~recovery_mean_likelihood (bool, false): Florence addition: the recovery averages follow the set's
-        mean sensor likelihood (Probabilistic Robotics) instead of ROS's mean divided by the particle count,
-        which KLD-sampling's shrinking set inflates so that random poses are never injected (false: ROS).
-    ~recovery_wait_converged (bool, false): Florence addition: after an initialisation the recovery averages
-        start once the set has converged (all particles within 0.5 m of the mean), not from the likelihood of a
-        set spread by global_localization, which keeps w_slow so low that a wrong pose never draws random poses.
-    ~initial_pose_x, ~initial_pose_y (double, 0.0, m), ~initial_pose_a (double, 0.0, rad): initial mean.
-    ~initial_cov_xx, ~initial_cov_yy (double, 0.25, m^2), ~initial_cov_aa (double, (pi/12)^2, rad^2).
-    ~gui_publish_rate (double, -1.0, Hz): accepted and unused, as in ROS noetic amcl (particlecloud
-        goes out with every filter update).
-    ~save_pose_rate (double, 0.5, Hz): how often the estimate is stored in ~initial_pose_* and
-        ~initial_cov_* (-1 disables).
-    ~use_map_topic (bool, false): take the map from the map topic instead of the static_map service.
-    ~first_map_only (bool, false): ignore maps after the first.
-    ~laser_min_range, ~laser_max_range (double, -1.0, m): override the scan's limits when > 0.
-    ~laser_max_beams (int, 30): beams used per scan (evenly spaced).
-    ~laser_z_hit (0.95), ~laser_z_short (0.1), ~laser_z_max (0.05), ~laser_z_rand (0.05) (double):
-        mixture weights.
-    ~laser_sigma_hit (double, 0.2, m): std dev of the hit term.
-    ~laser_lambda_short (double, 0.1, 1/m): exponential rate of the short term (beam model).
-    ~laser_likelihood_max_dist (double, 2.0, m): cap of the likelihood field's distance.
-    ~laser_model_type (str, "likelihood_field"): "likelihood_field", "likelihood_field_prob" (ROS's product of
-        the beams' pz, without beam skipping) or "beam".
-    ~laser_likelihood_interpolate (bool, false): Florence addition: the likelihood field's distance is
-        interpolated between cell centres and signed: the surface runs through the outermost occupied cells'
-        centres and an endpoint inside an obstacle counts its depth (false: ROS's cell lookup, 0 inside).
-    ~odom_model_type (str, "diff"): "diff" (ROS's original) or "diff-corrected".
-    ~odom_alpha1..4 (double, 0.2): rotation/translation noise; ~odom_alpha5 (0.2): unused (omni only).
-    ~odom_frame_id (str, "odom"), ~base_frame_id (str, "base_link"), ~global_frame_id (str, "map").
-    ~tf_broadcast (bool, true): publish map->odom.
-    ~off_free_weight (double, 1.0): Florence addition: factor on the sensor likelihood of particles that are
-        not on a free map cell (inside furniture, walls, unknown space or off the map); 1.0 is ROS amcl.
+ROS Parameters: amcl.params.FILTER and NODE, ROS amcl's names and defaults (rendered in the README).
 
-Publishers:
+ROS Publishers:
     amcl_pose (geometry_msgs/PoseWithCovarianceStamped, latched): the estimate after each resampling.
     particlecloud (geometry_msgs/PoseArray): the particles.
     tf: map -> odom, stamped scan time + transform_tolerance.
     ~update_duration (std_msgs/Float64, s): wall time of each filter update (Florence addition, for profiling).
+    /diagnostics: the map, the particle set, updates and why scans were skipped.
 
-Subscribers:
+ROS Subscribers:
     scan (sensor_msgs/LaserScan), initialpose (geometry_msgs/PoseWithCovarianceStamped),
     map (nav_msgs/OccupancyGrid, with use_map_topic).
 
-Services:
+ROS Services:
     global_localization (std_srvs/Empty), request_nomotion_update (std_srvs/Empty),
     set_map (nav_msgs/SetMap).
 Services called:
     static_map (nav_msgs/GetMap), without use_map_topic.
 """
 
-import math
 import threading
 import time
 
 import numpy as np
 import rospy
 import tf2_ros
-from geometry_msgs.msg import Pose, PoseArray, PoseWithCovarianceStamped, TransformStamped
+from geometry_msgs.msg import Point, Pose, PoseArray, PoseWithCovarianceStamped, Quaternion
 from nav_msgs.msg import OccupancyGrid
 from nav_msgs.srv import GetMap, SetMap, SetMapResponse
 from sensor_msgs.msg import LaserScan
@@ -77,18 +34,14 @@ from std_msgs.msg import Float64
 from std_srvs.srv import Empty, EmptyResponse
 
 from amcl.localizer import Localizer, config_from_params, map_to_odom
+from amcl.params import NODE
 from amcl.sensor import beams_in_base
+from florence_common.pose import yaw_to_quaternion
+from florence_common_ros.convert import pose_msg, quaternion_tuple, to_xyyaw, transform_stamped, yaw_of
+from florence_common_ros.diagnostics import ERROR, OK, WARN, Diagnostics
+from florence_common_ros.node import read_params, run
 
 LOG = "amcl: "
-
-
-def yaw_of(q):
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
-
-
-def set_yaw(q, yaw):
-    q.x = q.y = 0.0
-    q.z, q.w = math.sin(yaw / 2.0), math.cos(yaw / 2.0)
 
 
 def read_config():
@@ -100,24 +53,18 @@ class AmclNode:
     """One amcl instance: parameters, the localizer, and its ROS connections."""
 
     def __init__(self, rng=None):
-        g = rospy.get_param
         self.config = read_config()
-        self.transform_tolerance = rospy.Duration(float(g("~transform_tolerance", 0.1)))
-        self.init_mean = np.array([float(g("~initial_pose_x", 0.0)), float(g("~initial_pose_y", 0.0)),
-                                   float(g("~initial_pose_a", 0.0))])
-        self.init_cov = np.diag([float(g("~initial_cov_xx", 0.25)), float(g("~initial_cov_yy", 0.25)),
-                                 float(g("~initial_cov_aa", (math.pi / 12.0) ** 2))])
-        if not (np.isfinite(self.init_mean).all() and np.isfinite(self.init_cov).all() and (self.init_cov >= 0).all()):
-            raise ValueError("initial_pose_* must be finite and initial_cov_* finite and >= 0")
-        g("~gui_publish_rate", -1.0)  # read like ROS noetic, which declares it but publishes every update
-        save_rate = float(g("~save_pose_rate", 0.5))
-        self.save_period = rospy.Duration(1.0 / save_rate) if save_rate > 0 else None
-        self.use_map_topic = bool(g("~use_map_topic", False))
-        self.first_map_only = bool(g("~first_map_only", False))
-        self.odom_frame = str(g("~odom_frame_id", "odom")).lstrip("/")
-        self.base_frame = str(g("~base_frame_id", "base_link")).lstrip("/")
-        self.global_frame = str(g("~global_frame_id", "map")).lstrip("/")
-        self.tf_broadcast = bool(g("~tf_broadcast", True))
+        p = read_params(NODE)
+        self.transform_tolerance = rospy.Duration(p.transform_tolerance)
+        self.init_mean = np.array([p.initial_pose_x, p.initial_pose_y, p.initial_pose_a])
+        self.init_cov = np.diag([p.initial_cov_xx, p.initial_cov_yy, p.initial_cov_aa])
+        self.save_period = rospy.Duration(1.0 / p.save_pose_rate) if p.save_pose_rate > 0 else None
+        self.use_map_topic = p.use_map_topic
+        self.first_map_only = p.first_map_only
+        self.odom_frame, self.base_frame, self.global_frame = p.odom_frame_id, p.base_frame_id, p.global_frame_id
+        self.tf_broadcast = p.tf_broadcast
+        self.skipped = {}  # reason -> scans skipped for it
+        self.updates = 0
 
         self.lock = threading.RLock()
         self.localizer = Localizer(self.config, rng)
@@ -133,6 +80,8 @@ class AmclNode:
         self.pose_pub = rospy.Publisher("amcl_pose", PoseWithCovarianceStamped, queue_size=2, latch=True)
         self.cloud_pub = rospy.Publisher("particlecloud", PoseArray, queue_size=2, latch=True)
         self.duration_pub = rospy.Publisher("~update_duration", Float64, queue_size=10)
+        self.diag = Diagnostics("amcl")
+        self.diag.add("Localization", self._diagnose)
         self.services = [
             rospy.Service("global_localization", Empty, self.on_global_localization),
             rospy.Service("request_nomotion_update", Empty, self.on_nomotion_update),
@@ -240,15 +189,18 @@ class AmclNode:
     # ---- scans -----------------------------------------------------------------------
     def lookup_2d(self, target, source, stamp, timeout=0.2):
         t = self.tf_buffer.lookup_transform(target, source, stamp, rospy.Duration(timeout))
-        tr, q = t.transform.translation, t.transform.rotation
-        return np.array([tr.x, tr.y, yaw_of(q)]), t
+        return np.array(to_xyyaw(t)), t
 
     def laser_pose(self, frame):
         if frame not in self.laser_geometry:
             t = self.tf_buffer.lookup_transform(self.base_frame, frame, rospy.Time(0), rospy.Duration(1.0))
-            tr, q = t.transform.translation, t.transform.rotation
-            self.laser_geometry[frame] = ((tr.x, tr.y, tr.z), (q.x, q.y, q.z, q.w))
+            tr = t.transform.translation
+            self.laser_geometry[frame] = ((tr.x, tr.y, tr.z), quaternion_tuple(t.transform.rotation))
         return self.laser_geometry[frame]
+
+    def _skip(self, reason):
+        self.skipped[reason] = self.skipped.get(reason, 0) + 1
+        rospy.logwarn_throttle(5.0, LOG + f"skipping a scan: {reason}")
 
     def on_scan(self, scan):
         frame = scan.header.frame_id.lstrip("/")
@@ -256,7 +208,7 @@ class AmclNode:
             translation, quaternion = self.laser_pose(frame)
             odom_pose, _ = self.lookup_2d(self.odom_frame, self.base_frame, scan.header.stamp)
         except (tf2_ros.LookupException, tf2_ros.ConnectivityException, tf2_ros.ExtrapolationException) as exc:
-            rospy.logwarn_throttle(5.0, LOG + f"skipping a scan: no transform ({exc})")
+            self._skip(f"no transform ({exc})")
             return
         n = len(scan.ranges)
         angles = scan.angle_min + scan.angle_increment * np.arange(n)
@@ -269,6 +221,8 @@ class AmclNode:
                                                  scan.range_min, scan.range_max)
             elapsed = time.perf_counter() - start
             if result.updated:
+                self.updates += 1
+                self.last_update_ms = 1000.0 * elapsed
                 self.duration_pub.publish(Float64(elapsed))
                 self.publish_cloud(scan.header.stamp)
                 if result.resampled or self.force_publish:
@@ -276,7 +230,7 @@ class AmclNode:
                     self.publish_pose(result, scan.header.stamp)
                     self.last_map_to_odom = map_to_odom(result.pose, odom_pose)
             elif result.reason not in ("", "not moved enough"):
-                rospy.logwarn_throttle(5.0, LOG + f"skipping a scan: {result.reason}")
+                self._skip(result.reason)
             if self.last_map_to_odom is not None and self.tf_broadcast:
                 self.publish_tf(self.last_map_to_odom, scan.header.stamp + self.transform_tolerance)
             if self.localizer.last_estimate is not None:
@@ -285,9 +239,7 @@ class AmclNode:
     def publish_pose(self, result, stamp):
         msg = PoseWithCovarianceStamped()
         msg.header.stamp, msg.header.frame_id = stamp, self.global_frame
-        p = msg.pose.pose
-        p.position.x, p.position.y = float(result.pose[0]), float(result.pose[1])
-        set_yaw(p.orientation, float(result.pose[2]))
+        msg.pose.pose = pose_msg(*(float(v) for v in result.pose))
         cov = [0.0] * 36
         cov[0], cov[1], cov[6], cov[7] = (float(v) for v in result.cov[:2, :2].ravel())
         cov[35] = float(result.cov[2, 2])
@@ -297,19 +249,14 @@ class AmclNode:
     def publish_cloud(self, stamp):
         msg = PoseArray()
         msg.header.stamp, msg.header.frame_id = stamp, self.global_frame
-        for x, y, a in self.localizer.pf.particles:
-            pose = Pose()
-            pose.position.x, pose.position.y = float(x), float(y)
-            set_yaw(pose.orientation, float(a))
-            msg.poses.append(pose)
+        particles = self.localizer.pf.particles
+        quaternions = yaw_to_quaternion(particles[:, 2]).reshape(-1, 4)  # all at once: thousands of particles
+        for (x, y, _), (qx, qy, qz, qw) in zip(particles.tolist(), quaternions.tolist(), strict=True):
+            msg.poses.append(Pose(Point(x, y, 0.0), Quaternion(qx, qy, qz, qw)))
         self.cloud_pub.publish(msg)
 
     def publish_tf(self, transform, stamp):
-        t = TransformStamped()
-        t.header.stamp, t.header.frame_id, t.child_frame_id = stamp, self.global_frame, self.odom_frame
-        t.transform.translation.x, t.transform.translation.y = float(transform[0]), float(transform[1])
-        set_yaw(t.transform.rotation, float(transform[2]))
-        self.tf_pub.sendTransform(t)
+        self.tf_pub.sendTransform(transform_stamped(stamp, self.global_frame, self.odom_frame, *transform))
 
     def maybe_save_pose(self, pose, cov):
         if self.save_period is None:
@@ -324,11 +271,28 @@ class AmclNode:
             rospy.set_param(f"~{name}", float(value))
 
 
+    def _diagnose(self, stat):
+        with self.lock:
+            have_map, n = self.have_map, len(self.localizer.pf) if self.have_map else 0
+            estimate = self.localizer.last_estimate
+        if not have_map:
+            stat.summary(ERROR, "no map yet")
+        elif self.skipped:
+            reasons = "; ".join(f"{k} ({v})" for k, v in sorted(self.skipped.items()))
+            stat.summary(WARN, f"scans skipped: {reasons}"[:200])
+        else:
+            stat.summary(OK, f"localizing with {n} particles")
+        self.skipped = {}
+        stat.add("particles", n)
+        stat.add("filter updates", self.updates)
+        stat.add("last update (ms)", f"{getattr(self, 'last_update_ms', 0.0):.1f}")
+        if estimate is not None:
+            pose, cov = estimate
+            stat.add("pose (x, y, yaw)", f"{pose[0]:.3f}, {pose[1]:.3f}, {pose[2]:.3f}")
+            std = np.sqrt(np.diag(cov))
+            stat.add("std x, y (m), yaw (rad)", f"{std[0]:.3f}, {std[1]:.3f}, {std[2]:.3f}")
+        return stat
+
+
 def main():
-    rospy.init_node("amcl")
-    try:
-        AmclNode()
-    except ValueError as exc:
-        rospy.logfatal(LOG + str(exc))
-        raise SystemExit(1) from None
-    rospy.spin()
+    run(AmclNode, "amcl")

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-from amcl.motion import normalize_angle
+from florence_common import angles
 
 log = logging.getLogger(__name__)
 
@@ -83,7 +83,7 @@ def kld_limit(k, kld_err, kld_z, min_particles, max_particles):
 
 def bin_keys(particles):
     """Integer histogram bin (ix, iy, iyaw) of each particle [N, 3]; yaw normalised first."""
-    scaled = np.column_stack([particles[:, 0], particles[:, 1], normalize_angle(particles[:, 2])]) / BIN_SIZE
+    scaled = np.column_stack([particles[:, 0], particles[:, 1], angles.wrap(particles[:, 2])]) / BIN_SIZE
     return np.floor(scaled).astype(np.int64)
 
 
@@ -146,8 +146,7 @@ def cluster_labels(particles):
 def weighted_mean(particles, weights):
     """(x, y, yaw) weighted mean; yaw by the circular mean."""
     w = weights / weights.sum()
-    return np.array([np.dot(w, particles[:, 0]), np.dot(w, particles[:, 1]),
-                     math.atan2(np.dot(w, np.sin(particles[:, 2])), np.dot(w, np.cos(particles[:, 2])))])
+    return np.array([np.dot(w, particles[:, 0]), np.dot(w, particles[:, 1]), angles.circular_mean(particles[:, 2], w)])
 
 
 def weighted_covariance(particles, weights):
@@ -197,7 +196,7 @@ class ParticleFilter:
         vals, vecs = np.linalg.eigh(0.5 * (cov + cov.T))
         noise = self.rng.normal(size=(self.params.max_particles, 3)) * np.sqrt(np.clip(vals, 0.0, None))
         particles = np.asarray(mean, dtype=float) + noise @ vecs.T
-        particles[:, 2] = normalize_angle(particles[:, 2])
+        particles[:, 2] = angles.wrap(particles[:, 2])
         self._reset(particles)
 
     def init_uniform(self, omap):

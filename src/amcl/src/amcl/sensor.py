@@ -17,6 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
+from florence_common.pose import transform_matrix
+
 LASER_MODELS = ("likelihood_field", "beam", "likelihood_field_prob")
 
 
@@ -260,9 +262,7 @@ def beams_in_base(translation, quaternion, angles):
     through the full 3-D rotation and projected onto the base's x/y plane, so a laser
     mounted upside down (roll pi) simply gets mirrored bearings.
     """
-    from scipy.spatial.transform import Rotation
-
     angles = np.asarray(angles, dtype=float)
     dirs = np.column_stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)])
-    rotated = Rotation.from_quat(quaternion).apply(dirs)
+    rotated = dirs @ transform_matrix(translation, quaternion)[:3, :3].T
     return np.asarray(translation[:2], dtype=float), np.arctan2(rotated[:, 1], rotated[:, 0])

@@ -23,10 +23,10 @@ from pathlib import Path
 import numpy as np
 import rospkg
 import yaml
-
 from amcl.localizer import Localizer, config_from_params
-from amcl.motion import angle_diff
 from amcl.sensor import beams_in_base
+
+from florence_common import angles
 from florence_common.maps import map_file
 from florence_eval.tour import APARTMENT_LOOP, APARTMENT_START, convergence_index, follow, path_length, tour
 
@@ -79,7 +79,7 @@ class Run:
         est, truth = np.asarray(self.est).reshape(-1, 3), np.asarray(self.truth).reshape(-1, 3)
         dx, dy = est[:, 0] - truth[:, 0], est[:, 1] - truth[:, 1]
         c, s = np.cos(truth[:, 2]), np.sin(truth[:, 2])
-        return np.hypot(dx, dy), np.abs(angle_diff(est[:, 2], truth[:, 2])), c * dx + s * dy, -s * dx + c * dy
+        return np.hypot(dx, dy), np.abs(angles.diff(est[:, 2], truth[:, 2])), c * dx + s * dy, -s * dx + c * dy
 
     def tracking_summary(self):
         """RMS errors after convergence (within 0.1 m / 5 deg for 5 estimates, as bench/amcl.py)."""

@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-from amcl.motion import angle_diff
+from florence_common import angles
 
 # A loop through the shipped apartment (maps/apartment, map frame, metres), clear of furniture:
 # living room -> corridor (door x 2.0..2.9) -> kitchen (door x 6.0..6.9) -> back to the living
@@ -40,7 +40,7 @@ def follow(pose, target, v_max=0.3, w_max=1.0, turn_in_place=0.35, tolerance=0.0
     dist = math.hypot(dx, dy)
     if dist < tolerance:
         return 0.0, 0.0, True
-    err = float(angle_diff(math.atan2(dy, dx), pose[2]))
+    err = float(angles.diff(math.atan2(dy, dx), pose[2]))
     w = max(-w_max, min(w_max, 2.0 * err))
     if abs(err) > turn_in_place:
         return 0.0, w, False
@@ -67,7 +67,7 @@ def estimate_errors(est_times, est_poses, truth_times, truth_poses):
     truth = interpolate_poses(truth_times, truth_poses, est_times)
     est = np.asarray(est_poses, float).reshape(-1, 3)
     pos = np.hypot(est[:, 0] - truth[:, 0], est[:, 1] - truth[:, 1])
-    yaw = np.abs(angle_diff(est[:, 2], truth[:, 2]))
+    yaw = np.abs(angles.diff(est[:, 2], truth[:, 2]))
     return pos, yaw
 
 
