@@ -19,8 +19,8 @@ import sys
 
 import numpy as np
 import yaml
-from map_server.mapfile import atomic_write
 
+from florence_common.files import atomic_write
 from florence_sim.world import WorldError, load_world
 
 OCCUPIED, FREE, UNKNOWN = 0, 254, 205

@@ -25,11 +25,12 @@ YAML says ``occupied_thresh: 0.65`` and ``free_thresh: 0.196`` like map_saver, s
 import logging
 import math
 import os
-import tempfile
 from dataclasses import dataclass, field
 
 import numpy as np
 import yaml
+
+from florence_common.files import atomic_write
 
 log = logging.getLogger(__name__)
 
@@ -230,23 +231,6 @@ def occupancy_to_pgm(data, threshold_occupied=65, threshold_free=25):
     pixels[(data >= 0) & (data <= threshold_free)] = FREE_PIXEL
     pixels[data >= threshold_occupied] = OCCUPIED_PIXEL
     return np.ascontiguousarray(pixels[::-1])
-
-
-def atomic_write(path, payload):
-    """Write bytes to ``path`` through a temporary file in the same directory and os.replace."""
-    directory = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(prefix=f".{os.path.basename(path)}.", dir=directory)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(payload)
-            f.flush()
-            os.fsync(f.fileno())
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
 
 
 def save_map(grid, mapname, threshold_occupied=65, threshold_free=25):

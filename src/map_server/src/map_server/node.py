@@ -2,8 +2,7 @@
 
 ``rosrun map_server map_server map.yaml`` (or the deprecated ``map_server image.pgm 0.05``)
 
-ROS Parameters:
-    ~frame_id (str, "map"): frame of the published map's header.
+ROS Parameters: PARAMS below (rendered in the README).
 
 Publishers (latched):
     map (nav_msgs/OccupancyGrid): the map.
@@ -25,17 +24,16 @@ atomically, then exits.
 """
 
 import argparse
-import math
 import sys
 import threading
 
 import numpy as np
 
+from florence_common.params import FRAME, Param, ParamTable
+from florence_common.pose import quaternion_to_yaw, yaw_to_quaternion
 from map_server.mapfile import GridMap, MapFileError, load_image_map, load_map, save_map
 
-
-def _yaw_to_quaternion(yaw):
-    return 0.0, 0.0, math.sin(yaw / 2.0), math.cos(yaw / 2.0)
+PARAMS = ParamTable(Param("frame_id", FRAME, "map", "frame of the published map's header"))
 
 
 def grid_to_msg(grid, frame_id, stamp):
@@ -47,9 +45,8 @@ def grid_to_msg(grid, frame_id, stamp):
     info.resolution = grid.resolution
     info.width, info.height = grid.width, grid.height
     info.origin.position.x, info.origin.position.y = grid.origin[0], grid.origin[1]
-    q = _yaw_to_quaternion(grid.origin[2])
     o = info.origin.orientation
-    o.x, o.y, o.z, o.w = q
+    o.x, o.y, o.z, o.w = yaw_to_quaternion(grid.origin[2])
     msg = OccupancyGrid()
     msg.header.frame_id = frame_id
     msg.header.stamp = stamp
@@ -61,7 +58,7 @@ def grid_to_msg(grid, frame_id, stamp):
 def msg_to_grid(msg):
     """OccupancyGrid to GridMap (origin yaw from the quaternion)."""
     o = msg.info.origin.orientation
-    yaw = math.atan2(2.0 * (o.w * o.z + o.x * o.y), 1.0 - 2.0 * (o.y * o.y + o.z * o.z))
+    yaw = quaternion_to_yaw((o.x, o.y, o.z, o.w)) if (o.x, o.y, o.z, o.w) != (0, 0, 0, 0) else 0.0
     data = np.asarray(msg.data, dtype=np.int8).reshape(msg.info.height, msg.info.width)
     return GridMap(data=data, resolution=msg.info.resolution,
                    origin=(msg.info.origin.position.x, msg.info.origin.position.y, yaw))
@@ -88,7 +85,9 @@ class MapServer:
         from nav_msgs.msg import MapMetaData, OccupancyGrid
         from nav_msgs.srv import GetMap, GetMapResponse
 
-        self.frame_id = str(rospy.get_param("~frame_id", "map"))
+        from florence_common_ros.node import read_params
+
+        self.frame_id = read_params(PARAMS).frame_id
         self.map_msg, info = grid_to_msg(grid, self.frame_id, rospy.Time.now())
         self._response = GetMapResponse(map=self.map_msg)
         self.meta_pub = rospy.Publisher("map_metadata", MapMetaData, queue_size=1, latch=True)
@@ -109,9 +108,9 @@ def main(argv=None):
     except MapFileError as exc:
         print(f"map_server: {exc}", file=sys.stderr)
         sys.exit(1)
-    rospy.init_node("map_server")
-    MapServer(grid)
-    rospy.spin()
+    from florence_common_ros.node import run
+
+    run(MapServer, "map_server", grid)
 
 
 def saver_main(argv=None):
