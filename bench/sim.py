@@ -21,24 +21,18 @@ import time
 
 import numpy as np
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-APARTMENT = os.path.join(ROOT, "maps", "apartment")
+RESULTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results")
 
 
 def make_sim(width=160, height=120):
-    from florence_sim.base import BaseConfig
-    from florence_sim.people import load_people
-    from florence_sim.robot_model import RobotModel
     from florence_sim.sensors import CameraConfig
     from florence_sim.sim import SimConfig, Simulator
-    from florence_sim.world import load_world
 
-    world = load_world(os.path.join(APARTMENT, "apartment.world.yaml"))
-    people = load_people(os.path.join(APARTMENT, "people.yaml"), world.scene)
-    robot = RobotModel.from_xacro()
-    base = BaseConfig(radius=robot.cylinder_radius("base_link"), height=robot.height(), wheel_separation=0.26)
-    cfg = SimConfig(camera=CameraConfig(width=width, height=height))
-    return Simulator(world, robot, base, cfg, people, start=(1.0, 2.5, 0.0))
+    from florence_common.maps import map_file
+
+    return Simulator.from_files(map_file("apartment", "apartment.world.yaml"), map_file("apartment", "people.yaml"),
+                                config=SimConfig(camera=CameraConfig(width=width, height=height)),
+                                start=(1.0, 2.5, 0.0))
 
 
 def run_core(seconds, camera=True):
@@ -90,12 +84,6 @@ def render_times(repeats=30):
     return out
 
 
-def _cpu_of(pid):
-    with open(f"/proc/{pid}/stat") as f:
-        fields = f.read().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
-
-
 def _node_pid(launch_pid):
     for entry in os.listdir("/proc"):
         if not entry.isdigit():
@@ -114,6 +102,8 @@ def _node_pid(launch_pid):
 
 def run_ros(seconds):
     """The node unthrottled, without and then with a depth subscriber."""
+    from florence_eval.metrics import cpu_seconds
+
     from florence_common.processes import RosMaster, roslaunch, wait_for
 
     master = RosMaster().start()
@@ -140,9 +130,9 @@ def run_ros(seconds):
             if label == "depth_subscriber":
                 sub = rospy.Subscriber("/camera/depth/image", Image, count, queue_size=5)
                 wait_for(lambda: frames["n"] > 0, 60.0, what="depth images")
-            s0, w0, c0, f0 = clock["t"], time.monotonic(), _cpu_of(pid), frames["n"]
+            s0, w0, c0, f0 = clock["t"], time.monotonic(), cpu_seconds(pid), frames["n"]
             time.sleep(seconds)
-            sim_s, wall_s, cpu_s = clock["t"] - s0, time.monotonic() - w0, _cpu_of(pid) - c0
+            sim_s, wall_s, cpu_s = clock["t"] - s0, time.monotonic() - w0, cpu_seconds(pid) - c0
             results[label] = {"sim_seconds": sim_s, "wall_seconds": wall_s, "cpu_seconds": cpu_s,
                               "cpu_seconds_per_sim_second": cpu_s / sim_s, "real_time_factor": sim_s / wall_s,
                               "depth_images_per_sim_second": (frames["n"] - f0) / sim_s}
@@ -171,9 +161,8 @@ def main(argv=None):
         results["ros_node"] = run_ros(args.ros_seconds)
     results["meets_10x_on_one_core"] = results["core_with_depth"]["cpu_seconds_per_sim_second"] <= 0.1
     print(json.dumps(results, indent=2))
-    out_dir = os.path.join(ROOT, "bench", "results")
-    os.makedirs(out_dir, exist_ok=True)
-    path = os.path.join(out_dir, "sim.json")
+    os.makedirs(RESULTS, exist_ok=True)
+    path = os.path.join(RESULTS, "sim.json")
     tmp = path + ".tmp"
     with open(tmp, "w") as f:
         json.dump(results, f, indent=2)

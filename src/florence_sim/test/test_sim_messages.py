@@ -1,17 +1,18 @@
 """The node's message builders (no ROS master needed): fields as the real drivers fill them."""
 
 import math
-import pathlib
 
 import numpy as np
 import pytest
 from florence_sim.base import BaseConfig
-from florence_sim.node import _Messages
+from florence_sim.messages import Messages
 from florence_sim.robot_model import RobotModel
 from florence_sim.sim import SimConfig, Simulator
 from florence_sim.world import load_world
 
-APARTMENT = pathlib.Path(__file__).resolve().parents[3] / "maps" / "apartment" / "apartment.world.yaml"
+from florence_common.maps import map_file
+
+APARTMENT = map_file("apartment", "apartment.world.yaml")
 
 
 @pytest.fixture(scope="module")
@@ -29,7 +30,7 @@ def stamp():
 
 
 def test_scan_message_is_honest(sim, stamp):
-    msg = _Messages(sim).scan(stamp, sim.scan())
+    msg = Messages(sim).scan(stamp, sim.scan())
     assert msg.header.frame_id == "base_laser_link" and msg.header.stamp == stamp
     assert msg.angle_min == pytest.approx(-math.pi / 2) and msg.angle_max == pytest.approx(math.pi / 2)
     assert len(msg.ranges) == round((msg.angle_max - msg.angle_min) / msg.angle_increment) + 1
@@ -41,7 +42,7 @@ def test_scan_message_is_honest(sim, stamp):
 
 
 def test_depth_image_and_cloud_round_trip(sim, stamp):
-    m = _Messages(sim)
+    m = Messages(sim)
     depth, _ = sim.render_camera("camera_depth_optical_frame", noise=False, color=False)
     img = m.depth_image(stamp, depth)
     back = np.frombuffer(img.data, dtype="<f4").reshape(img.height, img.width)
@@ -65,7 +66,7 @@ def test_depth_image_and_cloud_round_trip(sim, stamp):
 
 
 def test_sensor_state_packets_add_up_to_the_odometry(sim, stamp):
-    m = _Messages(sim)
+    m = Messages(sim)
     m.sensor_state(stamp)  # reset the packet counters
     total_d = total_a = 0.0
     start = (sim.base.ox, sim.base.oy, sim.base.oyaw)
@@ -85,7 +86,7 @@ def test_sensor_state_packets_add_up_to_the_odometry(sim, stamp):
 
 
 def test_fake_localization_composes_to_ground_truth(sim, stamp):
-    m = _Messages(sim)
+    m = Messages(sim)
     map_odom = m.map_to_odom(stamp).transform
     _, odom_base = m.odometry(stamp)
     yaw = 2 * math.atan2(map_odom.rotation.z, map_odom.rotation.w)

@@ -12,6 +12,7 @@ import time
 import numpy as np
 import pytest
 
+from florence_common.maps import map_file
 from florence_common.processes import roslaunch, wait_for
 
 RTF = 3.0  # small world
@@ -77,9 +78,8 @@ def _unsubscribe(topics):
 
 @pytest.fixture(scope="class")
 def small_world(ros_master, rospy_node, tf_buffer, tmp_path_factory):
-    import pathlib
 
-    types = pathlib.Path(__file__).resolve().parents[3] / "maps" / "florence_types.yaml"
+    types = map_file("florence_types.yaml")
     world = tmp_path_factory.mktemp("world") / "test.world.yaml"
     world.write_text(WORLD.format(types=types))
     nobody = world.parent / "nobody.yaml"

@@ -2,16 +2,19 @@
 
 import math
 import pathlib
+import xml.etree.ElementTree as ET
 
 import numpy as np
 import pytest
+import rospkg
 import yaml
 from florence_sim.people import Person, check_path, load_people
 from florence_sim.world import ROOMS, WorldError, load_world
 
+from florence_common.maps import maps_dir
 from florence_sim import mapgen
 
-MAPS = pathlib.Path(__file__).resolve().parents[3] / "maps"
+MAPS = maps_dir()
 APARTMENT = MAPS / "apartment" / "apartment.world.yaml"
 TYPES = MAPS / "florence_types.yaml"
 # base_laser_link height of the Florence TurtleBot; the map test below reads it from the description
@@ -192,7 +195,7 @@ def test_shipped_people_are_valid(apartment):
 
 def test_florence_locator_config_matches_the_apartment(apartment):
     """florence_locator's shipped rooms and hotspots are the apartment's (one source: the world file)."""
-    config = MAPS.parent / "src" / "florence_locator" / "config"
+    config = pathlib.Path(rospkg.RosPack().get_path("florence_locator")) / "config"
     rooms = yaml.safe_load((config / "rooms.yaml").read_text())["rooms"]
     hotspots = yaml.safe_load((config / "hotspots.yaml").read_text())["hotspots"]
     assert set(rooms) == set(hotspots) == set(apartment.rooms)
@@ -201,12 +204,15 @@ def test_florence_locator_config_matches_the_apartment(apartment):
         assert (hotspots[name]["x"], hotspots[name]["y"], hotspots[name]["phi"]) == pytest.approx(room.hotspot)
 
 
-def test_navigation_launch_files_default_to_the_shipped_map():
-    root = MAPS.parent
-    for launch in ("src/turtlebot_control/launch/turtlebot_2dnav_control.launch",
-                   "src/florence_bringup/launch/florence_bringup.launch",
-                   "src/user_test/launch/florence_user_test.launch"):
-        assert "$(find florence_sim)/../../maps/apartment/apartment.yaml" in (root / launch).read_text(), launch
+def test_the_simulator_launch_file_defaults_to_the_shipped_world():
+    """Its world and people arguments resolve (through FLORENCE_MAPS, no path arithmetic) to the files here."""
+    from roslaunch.substitution_args import resolve_args
+
+    launch = pathlib.Path(rospkg.RosPack().get_path("florence_sim")) / "launch" / "florence_sim.launch"
+    args = {a.get("name"): a.get("default") for a in ET.parse(launch).getroot().iter("arg")}
+    assert "../" not in args["world"] + args["people"]
+    assert pathlib.Path(resolve_args(args["world"])) == APARTMENT
+    assert pathlib.Path(resolve_args(args["people"])) == MAPS / "apartment" / "people.yaml"
 
 
 def test_generate_map_command_writes_the_files_and_reports_bad_worlds(tmp_path, capsys):

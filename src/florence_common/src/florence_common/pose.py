@@ -99,6 +99,11 @@ def rpy_to_matrix(rpy):
     return Rotation.from_euler("xyz", np.asarray(rpy, dtype=float)).as_matrix()
 
 
+def axis_angle_matrix(axis, angle):
+    """3x3 rotation by ``angle`` [rad] about the unit vector ``axis`` (a URDF joint's axis)."""
+    return Rotation.from_rotvec(np.asarray(axis, dtype=float) * float(angle)).as_matrix()
+
+
 def transform_matrix(translation, quaternion):
     """4x4 homogeneous transform of a translation (x, y, z) [m] and a quaternion (x, y, z, w)."""
     m = np.eye(4)

@@ -28,6 +28,7 @@ from amcl.sensor import beams_in_base
 
 from florence_common import angles
 from florence_common.maps import map_file
+from florence_common.pose import matrix_to_transform
 from florence_eval.tour import APARTMENT_LOOP, APARTMENT_START, convergence_index, follow, path_length, tour
 
 TURTLEBOT_CONTROL = Path(rospkg.RosPack().get_path("turtlebot_control"))
@@ -106,23 +107,14 @@ class OfflineSim:
     odom_linear_scale_error) to change the simulated robot; ``sim_seed`` the simulator's noise seed."""
 
     def __init__(self, config, start=APARTMENT_START, sim_seed=1, amcl_seed=1, base_overrides=None):
-        from florence_sim.base import BaseConfig
         from florence_sim.robot_model import RobotModel
         from florence_sim.sim import SimConfig, Simulator
-        from florence_sim.world import load_world
         from map_server.mapfile import load_map
-        from scipy.spatial.transform import Rotation
 
-        world = load_world(str(WORLD))
-        robot = RobotModel.from_xacro(str(XACRO))
-        left, right = robot.pose("left_wheel_link")[1, 3], robot.pose("right_wheel_link")[1, 3]
-        base = BaseConfig(radius=robot.cylinder_radius("base_link"), height=robot.height(),
-                          wheel_separation=abs(left - right), **(base_overrides or {}))
-        self.sim = Simulator(world, robot, base, SimConfig(seed=sim_seed), (), tuple(start))
-        self.sim.set_robot_pose(*start)
-        mount = self.sim.laser.mount
-        self.laser_xy, self.bearings = beams_in_base(mount[:3, 3], Rotation.from_matrix(mount[:3, :3]).as_quat(),
-                                                     self.sim.laser.angles)
+        self.sim = Simulator.from_files(WORLD, None, RobotModel.from_xacro(str(XACRO)), SimConfig(seed=sim_seed),
+                                        tuple(start), **(base_overrides or {}))
+        translation, quaternion = matrix_to_transform(self.sim.laser.mount)
+        self.laser_xy, self.bearings = beams_in_base(translation, quaternion, self.sim.laser.angles)
         grid = load_map(str(MAP_YAML))
         self.loc = Localizer(config, np.random.default_rng(amcl_seed))
         self.loc.set_map(grid.data, grid.resolution, grid.origin[:2])

@@ -12,6 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from florence_common import pose
+from florence_common.angles import wrap
+
 log = logging.getLogger(__name__)
 
 BUMP_RIGHT, BUMP_LEFT = 1, 2  # bits of TurtlebotSensorState.bumps_wheeldrops
@@ -129,7 +132,7 @@ class DiffDriveBase:
             self.w = 0.0
             dyaw = 0.0
         self.x, self.y = nx, ny
-        self.yaw = _wrap(self.yaw + dyaw)
+        self.yaw = wrap(self.yaw + dyaw)
         self._update_bumpers(probes <= 0)
         self._odometry(dt, moved, dyaw)
 
@@ -159,23 +162,17 @@ class DiffDriveBase:
         heading = self.oyaw + dth / 2
         self.ox += ds * math.cos(heading)
         self.oy += ds * math.sin(heading)
-        self.oyaw = _wrap(self.oyaw + dth)
+        self.oyaw = wrap(self.oyaw + dth)
         self.odom_v, self.odom_w = ds / dt, rate
         self.distance_acc += ds
         self.angle_acc += dth
 
     def odom_in_world(self):
         """The odometry pose (x, y, yaw) expressed in the world, through the pose it started at."""
-        x0, y0, yaw0 = self.odom_origin
-        c, s = math.cos(yaw0), math.sin(yaw0)
-        return x0 + c * self.ox - s * self.oy, y0 + s * self.ox + c * self.oy, _wrap(yaw0 + self.oyaw)
+        return pose.compose(self.odom_origin, (self.ox, self.oy, self.oyaw))
 
     def take_packet_deltas(self):
         """(distance [m], angle [rad]) since the previous call, like the Create's sensor packet."""
         out = (self.distance_acc, self.angle_acc)
         self.distance_acc = self.angle_acc = 0.0
         return out
-
-
-def _wrap(a):
-    return (a + math.pi) % (2 * math.pi) - math.pi

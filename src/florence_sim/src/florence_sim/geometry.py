@@ -16,6 +16,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from florence_common.angles import wrap
+
 BIG = np.float32(1e9)
 
 
@@ -218,14 +220,14 @@ class Scene:
         if heading is None or ray_angles is None:
             mean = d[:, :2].mean(axis=0)
             heading = np.arctan2(mean[1], mean[0])
-            ray_ang = _wrap(np.arctan2(d[:, 1], d[:, 0]) - heading)
+            ray_ang = wrap(np.arctan2(d[:, 1], d[:, 0]) - heading)
             bounds = [(ray_ang[idx].min(), ray_ang[idx].max()) for idx in groups]
         else:
             bounds = ray_angles if len(ray_angles) == len(groups) else [
                 (ray_angles[idx].min(), ray_angles[idx].max()) for idx in groups]
-        face_lo, face_hi = _interval(_wrap(np.arctan2(self.face_a[faces, 1] - o[1], self.face_a[faces, 0] - o[0])
+        face_lo, face_hi = _interval(wrap(np.arctan2(self.face_a[faces, 1] - o[1], self.face_a[faces, 0] - o[0])
                                            - heading),
-                                     _wrap(np.arctan2(self.face_b[faces, 1] - o[1], self.face_b[faces, 0] - o[0])
+                                     wrap(np.arctan2(self.face_b[faces, 1] - o[1], self.face_b[faces, 0] - o[0])
                                            - heading))
         box_lo, box_hi = _disc_interval(o, self.box_center[boxes], np.hypot(*self.box_half[boxes].T), heading)
         cyl_lo, cyl_hi = _disc_interval(o, self.cyl_center[cyls], self.cyl_radius[cyls], heading)
@@ -345,10 +347,6 @@ def _ray_circles(origin, dirs, centers, radii):
     return np.where((disc >= 0) & (t > 1e-9), t, np.inf)
 
 
-def _wrap(angle):
-    return (angle + np.pi) % (2 * np.pi) - np.pi
-
-
 def _interval(a, b):
     """Angle interval spanned by two relative angles; a pair straddling +-pi spans everything."""
     lo, hi = np.minimum(a, b), np.maximum(a, b)
@@ -360,7 +358,7 @@ def _disc_interval(o, centers, radii, heading):
     """Relative angle interval under which discs are seen from ``o`` (everything if ``o`` is inside)."""
     rel = centers - o[:2]
     dist = np.linalg.norm(rel, axis=1)
-    mid = _wrap(np.arctan2(rel[:, 1], rel[:, 0]) - heading)
+    mid = wrap(np.arctan2(rel[:, 1], rel[:, 0]) - heading)
     half = np.arcsin(np.clip(radii / np.maximum(dist, 1e-9), 0.0, 1.0))
     inside = (dist <= radii) | (np.abs(mid) + half > np.pi)
     return np.where(inside, -np.pi, mid - half), np.where(inside, np.pi, mid + half)

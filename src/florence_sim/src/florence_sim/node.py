@@ -1,35 +1,15 @@
 """florence_sim node: the simulator on ROS, standing in for turtlebot_node, hokuyo_node,
 the Kinect camera and kinect_aux with their topics, frames and conventions.
 
-ROS Parameters:
-    ~world (str, maps/apartment/apartment.world.yaml): world file
-    ~people_file (str, ""): people file ("" for nobody)
-    ~real_time_factor (float, 1.0): simulated seconds per wall second; 0 runs unthrottled
-    ~paused (bool, false): start paused (use ~unpause or ~step)
-    ~physics_step (float, 0.01, s): fixed physics step
-    ~x, ~y (float, 1.0, 2.5, m), ~yaw (float, 0.0, rad): robot start pose in the map frame
-    ~fake_localization (bool, false): publish tf map->odom from ground truth (no amcl needed)
-    ~seed (int, 0): random seed of every noise source
-    ~min_ang, ~max_ang (float, -pi/2, pi/2, rad): requested scan span, as hokuyo_node's
-        parameters (clipped to the URG-04LX's +-2.0862 rad, rounded to its steps)
-    ~laser_noise (float, 0.01, m): range noise std below 1 m (1 % of the range beyond)
-    ~laser_self_hits (bool, false): the scan also sees the robot's own standoffs at laser height,
-        as the real inverted Hokuyo does (laser_filter drops such readings)
-    ~laser_rate (float, 10, Hz), ~camera_rate (float, 15, Hz), ~odom_rate (float, 30, Hz)
-    ~camera_width, ~camera_height (int, 160, 120, px): Kinect image size (up to 640x480)
-    ~depth_noise (float, 0.0012, 1/m): depth noise std = depth_noise * depth^2
-    ~render_without_subscribers (bool, false): render the Kinect even when nobody listens
-    ~cmd_vel_timeout (float, 0.6, s): sim time without cmd_vel after which the robot stops
-    ~max_linear_acc (float, 1.0, m/s^2), ~max_angular_acc (float, 4.0, rad/s^2)
-    ~odom_linear_scale_error (float, 0.01), ~odom_linear_noise (float, 0.005, m/sqrt(m))
-    ~gyro_scale_error (float, 0.01), ~gyro_noise (float, 0.002, rad/sqrt(s)), ~gyro_bias (float, 0.0, rad/s)
+ROS Parameters: PARAMS below (rendered in the README).
 
 ROS Publishers:
     /clock (rosgraph_msgs/Clock): simulated time, every physics step
     odom (nav_msgs/Odometry): frame odom, child base_footprint; and tf odom->base_footprint
     imu/data (sensor_msgs/Imu): gyro heading and rate, frame gyro_link
     turtlebot_node/sensor_state (turtlebot_node/TurtlebotSensorState): bumpers, distance, angle (10 Hz)
-    /diagnostics (diagnostic_msgs/DiagnosticArray): 1 Hz
+    /diagnostics: the base (bumpers, collisions, odometry error), the laser, the simulation (time,
+        real-time factor asked and achieved, people), through diagnostic_updater
     scan (sensor_msgs/LaserScan): frame base_laser_link, exactly as the inverted URG-04LX reports it
     camera/depth/image (sensor_msgs/Image, 32FC1 m, NaN no return), camera/depth/camera_info
     camera/rgb/image_color (sensor_msgs/Image, rgb8), camera/rgb/camera_info
@@ -60,30 +40,60 @@ ROS Services:
 """
 
 import math
-import os
 import threading
 import time
 
-import numpy as np
-
-from florence_sim.sim import TILT_JOINT
+from florence_common.maps import map_file
+from florence_common.params import Param, ParamTable
+from florence_common_ros.diagnostics import OK, WARN, Diagnostics
+from florence_common_ros.node import read_params, run
+from florence_sim.base import BaseConfig
+from florence_sim.messages import Messages
+from florence_sim.sensors import CameraConfig, LaserConfig
 
 NAME = "florence_sim"
-# odometry covariance (x, y, z, roll, pitch, yaw) [m^2, rad^2]: planar, z and tilts unknown
-ODOM_COVARIANCE = np.diag([1e-3, 1e-3, 1e6, 1e6, 1e6, 1e-3]).ravel().tolist()
-
-
-def _default_world():
-    import rospkg
-
-    root = os.path.dirname(os.path.dirname(rospkg.RosPack().get_path("florence_sim")))
-    return os.path.join(root, "maps", "apartment", "apartment.world.yaml")
-
-
-def _quaternion(yaw):
-    from geometry_msgs.msg import Quaternion
-
-    return Quaternion(0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2))
+_BASE, _CAMERA = BaseConfig(radius=1.0, height=1.0, wheel_separation=1.0), CameraConfig()
+PARAMS = ParamTable(
+    Param("world", str, "", "world file (empty: maps/apartment/apartment.world.yaml)"),
+    Param("people_file", str, "", "people file (empty: nobody)"),
+    Param("real_time_factor", float, 1.0, "simulated seconds per wall second; 0 runs unthrottled", ge=0),
+    Param("paused", bool, False, "start paused (use ~unpause or ~step)"),
+    Param("physics_step", float, 0.01, "fixed physics step", unit="s", gt=0, le=0.1),
+    Param("x", float, 1.0, "robot start x in the map frame", unit="m"),
+    Param("y", float, 2.5, "robot start y in the map frame", unit="m"),
+    Param("yaw", float, 0.0, "robot start heading in the map frame", unit="rad"),
+    Param("fake_localization", bool, False, "publish tf map -> odom from ground truth (no amcl needed)"),
+    Param("seed", int, 0, "random seed of every noise source", ge=0),
+    Param("min_ang", float, -math.pi / 2, "first scan angle, as hokuyo_node's (clipped to the URG-04LX's "
+          "+-2.0862 rad, rounded to its steps)", unit="rad"),
+    Param("max_ang", float, math.pi / 2, "last scan angle, as hokuyo_node's", unit="rad"),
+    Param("laser_noise", float, 0.01, "range noise standard deviation below 1 m (1 % of the range beyond)", unit="m",
+          ge=0),
+    Param("laser_self_hits", bool, False, "the scan also sees the robot's own standoffs at laser height, as the "
+          "real inverted Hokuyo does (laser_filter drops such readings)"),
+    Param("laser_rate", float, 10.0, "scan rate", unit="Hz", gt=0),
+    Param("camera_rate", float, 15.0, "Kinect frame rate", unit="Hz", gt=0),
+    Param("odom_rate", float, 30.0, "odometry, imu and tf rate", unit="Hz", gt=0),
+    Param("camera_width", int, _CAMERA.width, "Kinect image width", unit="px", ge=8, le=640),
+    Param("camera_height", int, _CAMERA.height, "Kinect image height", unit="px", ge=6, le=480),
+    Param("depth_noise", float, _CAMERA.depth_noise, "depth noise std = depth_noise * depth^2", unit="1/m", ge=0),
+    Param("render_without_subscribers", bool, False, "render the Kinect even when nobody listens"),
+    Param("cmd_vel_timeout", float, _BASE.cmd_timeout, "sim time without cmd_vel after which the robot stops",
+          unit="s", gt=0),
+    Param("max_linear_acc", float, _BASE.max_linear_acc, "the Create's wheel ramp", unit="m/s^2", gt=0),
+    Param("max_angular_acc", float, _BASE.max_angular_acc, "the Create's turn ramp", unit="rad/s^2", gt=0),
+    Param("odom_linear_scale_error", float, _BASE.odom_linear_scale_error, "odometry distance = true * (1 + error)"),
+    Param("odom_linear_noise", float, _BASE.odom_linear_noise, "random walk of the odometry distance",
+          unit="m/sqrt(m)", ge=0),
+    Param("gyro_scale_error", float, _BASE.gyro_scale_error, "measured rate = true * (1 + error)"),
+    Param("gyro_noise", float, _BASE.gyro_noise, "random walk of the gyro heading", unit="rad/sqrt(s)", ge=0),
+    Param("gyro_bias", float, _BASE.gyro_bias, "constant gyro drift", unit="rad/s"),
+)
+# the ~parameters that are BaseConfig fields, and their field names
+BASE_FIELDS = {"cmd_vel_timeout": "cmd_timeout", "max_linear_acc": "max_linear_acc",
+               "max_angular_acc": "max_angular_acc", "odom_linear_scale_error": "odom_linear_scale_error",
+               "odom_linear_noise": "odom_linear_noise", "gyro_scale_error": "gyro_scale_error",
+               "gyro_noise": "gyro_noise", "gyro_bias": "gyro_bias"}
 
 
 class SimNode:
@@ -92,7 +102,6 @@ class SimNode:
     def __init__(self):
         import rospy
         import tf2_ros
-        from diagnostic_msgs.msg import DiagnosticArray
         from geometry_msgs.msg import Twist
         from nav_msgs.msg import OccupancyGrid, Odometry
         from rosgraph_msgs.msg import Clock
@@ -103,15 +112,11 @@ class SimNode:
 
         from florence_sim.msg import People
         from florence_sim.srv import RemovePerson, SetPerson, SetRobotPose, Step
-        from florence_sim.world import WorldError
         from turtlebot_node.msg import TurtlebotSensorState
 
         self.rospy = rospy
-        try:
-            world, self.sim, self.rtf, self.fake_localization, self.render_always, paused = self._configure()
-        except (WorldError, ValueError, KeyError, TypeError) as exc:  # nonsense parameters or files
-            rospy.logfatal(f"{NAME}: {exc}")
-            raise SystemExit(1) from exc
+        # a bad parameter or a broken world file: run() logs it (file and field) and exits 1
+        world, self.sim, self.rtf, self.fake_localization, self.render_always, paused = self._configure()
         self.lock = threading.Condition()
         self.paused = paused
         self.pending_steps = 0
@@ -123,7 +128,6 @@ class SimNode:
         self.pub_odom = P("odom", Odometry, queue_size=10)
         self.pub_imu = P("imu/data", Imu, queue_size=10)
         self.pub_state = P("turtlebot_node/sensor_state", TurtlebotSensorState, queue_size=10)
-        self.pub_diag = P("/diagnostics", DiagnosticArray, queue_size=10)
         self.pub_scan = P("scan", LaserScan, queue_size=10)
         self.pub_depth = P("camera/depth/image", Image, queue_size=2)
         self.pub_depth_info = P("camera/depth/camera_info", CameraInfo, queue_size=2)
@@ -142,7 +146,11 @@ class SimNode:
         self.pub_overhang = P("~overhang_map", OccupancyGrid, queue_size=1, latch=True)
         self.pub_collisions = P("collisions", UInt32, queue_size=10, latch=True)
         self.tf = tf2_ros.TransformBroadcaster()
-        self.msgs = _Messages(self.sim)
+        self.msgs = Messages(self.sim)
+        self.diag = Diagnostics("florence_sim", tick=1.0)  # sim time: at 10x real time a 0.1 s tick costs
+        self.diag.add("Base (simulated)", self._diag_base)
+        self.diag.add("Hokuyo (simulated)", self._diag_laser)
+        self.diag.add("Simulation", self._diag_sim)
         self.pub_collisions.publish(0)
         self.published_collisions = 0
 
@@ -165,56 +173,27 @@ class SimNode:
         rospy.Service("~remove_person", RemovePerson, self._on_remove_person)
         rospy.loginfo(f"{NAME}: world {world.path} ({len(world.scene.names)} primitives), "
                       f"{len(self.sim.people)} people, real_time_factor {self.rtf or 'unthrottled'}")
+        self.loop = threading.Thread(target=self.spin, name="florence_sim_loop", daemon=True)
+        self.loop.start()
 
     def _configure(self):
         """Read and validate every ~parameter; load the world, people and robot; build the core."""
-        from florence_sim.base import BaseConfig
-        from florence_sim.people import load_people
         from florence_sim.robot_model import RobotModel
-        from florence_sim.sensors import CameraConfig, LaserConfig
         from florence_sim.sim import Rates, SimConfig, Simulator
-        from florence_sim.world import load_world
 
         rospy = self.rospy
-        p = rospy.get_param
-        world_file = p("~world", "") or _default_world()
-        people_file = p("~people_file", "")
-        rtf = float(p("~real_time_factor", 1.0))
-        if not (math.isfinite(rtf) and rtf >= 0):
-            raise ValueError(f"~real_time_factor must be >= 0 (0 = unthrottled), got {rtf}")
-        paused = bool(p("~paused", False))
-        dt = float(p("~physics_step", 0.01))
-        start = (float(p("~x", 1.0)), float(p("~y", 2.5)), float(p("~yaw", 0.0)))
-        fake_localization = bool(p("~fake_localization", False))
-        seed = int(p("~seed", 0))
-        laser = LaserConfig(min_ang=float(p("~min_ang", -math.pi / 2)), max_ang=float(p("~max_ang", math.pi / 2)),
-                            noise=float(p("~laser_noise", 0.01)), self_hits=bool(p("~laser_self_hits", False)))
-        camera = CameraConfig(width=int(p("~camera_width", 160)), height=int(p("~camera_height", 120)),
-                              depth_noise=float(p("~depth_noise", 0.0012)))
-        rates = Rates(laser=float(p("~laser_rate", 10.0)), camera=float(p("~camera_rate", 15.0)),
-                      odom=float(p("~odom_rate", 30.0)))
-        render_always = bool(p("~render_without_subscribers", False))
-        base_params = {
-            "cmd_timeout": float(p("~cmd_vel_timeout", 0.6)),
-            "max_linear_acc": float(p("~max_linear_acc", 1.0)),
-            "max_angular_acc": float(p("~max_angular_acc", 4.0)),
-            "odom_linear_scale_error": float(p("~odom_linear_scale_error", 0.01)),
-            "odom_linear_noise": float(p("~odom_linear_noise", 0.005)),
-            "gyro_scale_error": float(p("~gyro_scale_error", 0.01)),
-            "gyro_noise": float(p("~gyro_noise", 0.002)),
-            "gyro_bias": float(p("~gyro_bias", 0.0)),
-        }
-        world = load_world(world_file)
-        people = load_people(people_file, world.scene) if people_file else []
-        robot = RobotModel(p("/robot_description")) if rospy.has_param("/robot_description") \
+        p = read_params(PARAMS)
+        start = (p.x, p.y, p.yaw)
+        laser = LaserConfig(min_ang=p.min_ang, max_ang=p.max_ang, noise=p.laser_noise, self_hits=p.laser_self_hits)
+        camera = CameraConfig(width=p.camera_width, height=p.camera_height, depth_noise=p.depth_noise)
+        rates = Rates(laser=p.laser_rate, camera=p.camera_rate, odom=p.odom_rate)
+        robot = RobotModel(rospy.get_param("/robot_description")) if rospy.has_param("/robot_description") \
             else RobotModel.from_xacro()
-        dims = base_dimensions(robot)
-        base = BaseConfig(radius=dims["radius"], height=robot.height(), wheel_separation=dims["separation"],
-                          **base_params)
-        sim = Simulator(world, robot, base, SimConfig(dt=dt, rates=rates, laser=laser, camera=camera, seed=seed),
-                        people, start)
-        sim.set_robot_pose(*start)
-        return world, sim, rtf, fake_localization, render_always, paused
+        sim = Simulator.from_files(p.world or map_file("apartment", "apartment.world.yaml"), p.people_file or None,
+                                   robot, SimConfig(dt=p.physics_step, rates=rates, laser=laser, camera=camera,
+                                                    seed=p.seed), start,
+                                   **{field: p[name] for name, field in BASE_FIELDS.items()})
+        return sim.world, sim, p.real_time_factor, p.fake_localization, p.render_without_subscribers, p.paused
 
     # ------------------------------------------------------------------ callbacks
     def _on_cmd_vel(self, msg):
@@ -362,8 +341,6 @@ class SimNode:
         if "people" in due:
             send(self.pub_people, lambda: m.people(stamp))
             send(self.pub_markers, lambda: m.markers(stamp))
-        if "diagnostics" in due:
-            send(self.pub_diag, lambda: m.diagnostics(stamp, self.achieved_rtf, self.rtf))
 
     def _publish_camera(self, stamp):
         m, send = self.msgs, self._send
@@ -383,279 +360,29 @@ class SimNode:
                 self.pub_points.publish(m.points(stamp, depth, rgb))
 
 
-def base_dimensions(robot):
-    """Footprint radius and wheel separation [m] from the description."""
-    left = robot.pose("left_wheel_link")[1, 3]
-    right = robot.pose("right_wheel_link")[1, 3]
-    return {"radius": robot.cylinder_radius("base_link"), "separation": abs(left - right)}
-
-
-class _Messages:
-    """Message construction from the simulator state (kept apart from the loop)."""
-
-    def __init__(self, sim):
-        self.sim = sim
-
-    @staticmethod
-    def _odometry_msg(stamp, frame, pose, v, w, covariance=None):
-        """nav_msgs/Odometry of base_footprint at ``pose`` (x, y, yaw) in ``frame``."""
-        from nav_msgs.msg import Odometry
-
-        msg = Odometry()
-        msg.header.stamp = stamp
-        msg.header.frame_id = frame
-        msg.child_frame_id = "base_footprint"
-        msg.pose.pose.position.x, msg.pose.pose.position.y = pose[0], pose[1]
-        msg.pose.pose.orientation = _quaternion(pose[2])
-        msg.twist.twist.linear.x, msg.twist.twist.angular.z = v, w
-        if covariance is not None:
-            msg.pose.covariance = msg.twist.covariance = covariance
-        return msg
-
-    @staticmethod
-    def _transform(stamp, parent, child, x, y, yaw):
-        from geometry_msgs.msg import TransformStamped
-
-        t = TransformStamped()
-        t.header.stamp = stamp
-        t.header.frame_id = parent
-        t.child_frame_id = child
-        t.transform.translation.x, t.transform.translation.y = x, y
-        t.transform.rotation = _quaternion(yaw)
-        return t
-
-    def odometry(self, stamp):
-        """``odom`` message and the tf odom -> base_footprint."""
-        b = self.sim.base
-        odom = self._odometry_msg(stamp, "odom", (b.ox, b.oy, b.oyaw), b.odom_v, b.odom_w, ODOM_COVARIANCE)
-        return odom, self._transform(stamp, "odom", "base_footprint", b.ox, b.oy, b.oyaw)
-
-    def map_to_odom(self, stamp):
-        """tf map -> odom = truth * odom^-1 (fake localization)."""
-        b = self.sim.base
-        dyaw = b.yaw - b.oyaw
-        c, s = math.cos(dyaw), math.sin(dyaw)
-        return self._transform(stamp, "map", "odom", b.x - (c * b.ox - s * b.oy), b.y - (s * b.ox + c * b.oy), dyaw)
-
-    def ground_truth(self, stamp):
-        b = self.sim.base
-        return self._odometry_msg(stamp, "map", (b.x, b.y, b.yaw), b.v, b.w)
-
-    def gyro(self, stamp):
-        from sensor_msgs.msg import Imu
-
-        b = self.sim.base
-        msg = Imu()
-        msg.header.stamp = stamp
-        msg.header.frame_id = "gyro_link"
-        msg.orientation = _quaternion(b.oyaw)
-        msg.orientation_covariance = [1e6, 0, 0, 0, 1e6, 0, 0, 0, 0.05]
-        msg.angular_velocity.z = b.gyro_rate
-        msg.angular_velocity_covariance = [1e6, 0, 0, 0, 1e6, 0, 0, 0, 0.05]
-        msg.linear_acceleration_covariance = [-1, 0, 0, 0, 0, 0, 0, 0, 0]
-        return msg
-
-    def sensor_state(self, stamp):
-        from turtlebot_node.msg import TurtlebotSensorState as S
-
-        b = self.sim.base
-        distance, angle = b.take_packet_deltas()
-        msg = S()
-        msg.header.stamp = stamp
-        msg.bumps_wheeldrops = b.bumps
-        msg.distance, msg.angle = distance, angle
-        msg.oi_mode = S.OI_MODE_FULL
-        msg.remote_opcode = S.REMOTE_NONE
-        msg.charging_state = S.CHARGING_NOT_CHARGING
-        msg.voltage, msg.current, msg.temperature = 16000, -800, 25
-        msg.charge, msg.capacity = 2500, 3000
-        msg.user_analog_input = max(0, min(1023, round(512 + math.degrees(b.gyro_rate) / 0.25 * 0.2)))
-        vr = b.cmd_v + b.cmd_w * b.cfg.wheel_separation / 2
-        vl = b.cmd_v - b.cmd_w * b.cfg.wheel_separation / 2
-        msg.requested_velocity = round(b.cmd_v * 1000)
-        msg.requested_radius = 32768 if abs(b.cmd_w) < 1e-9 else round(max(-2000, min(2000, b.cmd_v / b.cmd_w
-                                                                                          * 1000)))
-        msg.requested_right_velocity, msg.requested_left_velocity = round(vr * 1000), round(vl * 1000)
-        return msg
-
-    def scan(self, stamp, ranges):
-        from sensor_msgs.msg import LaserScan
-
-        laser = self.sim.laser
-        msg = LaserScan()
-        msg.header.stamp = stamp
-        msg.header.frame_id = laser.cfg.frame_id
-        msg.angle_min, msg.angle_max, msg.angle_increment = laser.angle_min, laser.angle_max, laser.increment
-        msg.time_increment, msg.scan_time = laser.time_increment, laser.scan_time
-        msg.range_min, msg.range_max = laser.range_min, laser.range_max
-        msg.ranges = ranges.tolist()
-        return msg
-
-    def camera_info(self, stamp, frame):
-        from sensor_msgs.msg import CameraInfo
-
-        cam = self.sim.camera
-        msg = CameraInfo()
-        msg.header.stamp = stamp
-        msg.header.frame_id = frame
-        msg.width, msg.height = cam.cfg.width, cam.cfg.height
-        msg.distortion_model = "plumb_bob"
-        msg.D = [0.0] * 5
-        msg.K = cam.K
-        msg.R = [1.0, 0, 0, 0, 1.0, 0, 0, 0, 1.0]
-        msg.P = [cam.fx, 0.0, cam.cx, 0.0, 0.0, cam.fy, cam.cy, 0.0, 0.0, 0.0, 1.0, 0.0]
-        return msg
-
-    def depth_image(self, stamp, depth):
-        from sensor_msgs.msg import Image
-
-        msg = Image()
-        msg.header.stamp = stamp
-        msg.header.frame_id = "camera_depth_optical_frame"
-        msg.height, msg.width = depth.shape
-        msg.encoding = "32FC1"
-        msg.is_bigendian = 0
-        msg.step = depth.shape[1] * 4
-        msg.data = depth.astype("<f4").tobytes()
-        return msg
-
-    def rgb_image(self, stamp, rgb):
-        from sensor_msgs.msg import Image
-
-        msg = Image()
-        msg.header.stamp = stamp
-        msg.header.frame_id = "camera_rgb_optical_frame"
-        msg.height, msg.width = rgb.shape[:2]
-        msg.encoding = "rgb8"
-        msg.step = rgb.shape[1] * 3
-        msg.data = rgb.tobytes()
-        return msg
-
-    def points(self, stamp, depth, rgb):
-        from sensor_msgs.msg import PointCloud2, PointField
-
-        h, w = depth.shape
-        xyz = self.sim.camera.points(depth).astype(np.float32)
-        # PCL's packed rgb: 0x00RRGGBB in the bytes of a float32
-        packed = (rgb[..., 0].astype(np.uint32) << 16) | (rgb[..., 1].astype(np.uint32) << 8) | rgb[..., 2]
-        cloud = np.empty((h, w), dtype=[("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("rgb", "<u4")])
-        cloud["x"], cloud["y"], cloud["z"], cloud["rgb"] = xyz[..., 0], xyz[..., 1], xyz[..., 2], packed
-        msg = PointCloud2()
-        msg.header.stamp = stamp
-        msg.header.frame_id = "camera_rgb_optical_frame"
-        msg.height, msg.width = h, w
-        msg.fields = [PointField("x", 0, PointField.FLOAT32, 1), PointField("y", 4, PointField.FLOAT32, 1),
-                      PointField("z", 8, PointField.FLOAT32, 1), PointField("rgb", 12, PointField.FLOAT32, 1)]
-        msg.is_bigendian = False
-        msg.point_step = 16
-        msg.row_step = 16 * w
-        msg.is_dense = False
-        msg.data = cloud.tobytes()
-        return msg
-
-    def ground_truth_map(self, image):
-        """nav_msgs/OccupancyGrid in frame map of a :mod:`florence_sim.mapgen` image of the world."""
-        from nav_msgs.msg import OccupancyGrid
-
-        from florence_sim.mapgen import FREE, OCCUPIED
-
-        world = self.sim.world
-        image = np.flipud(image)  # row 0 = lowest y, as OccupancyGrid wants
-        grid = np.full(image.shape, -1, dtype=np.int8)
-        grid[image == FREE] = 0
-        grid[image == OCCUPIED] = 100
-        msg = OccupancyGrid()
-        msg.header.frame_id = "map"
-        msg.info.resolution = world.resolution
-        msg.info.height, msg.info.width = image.shape
-        msg.info.origin.position.x, msg.info.origin.position.y = world.bounds[0]
-        msg.info.origin.orientation.w = 1.0
-        msg.data = grid.ravel().tolist()
-        return msg
-
-    def accelerometer(self, stamp):
-        from sensor_msgs.msg import Imu
-
-        msg = Imu()
-        msg.header.stamp = stamp
-        msg.header.frame_id = "camera_link"
-        a = self.sim.accelerometer()
-        msg.linear_acceleration.x, msg.linear_acceleration.y, msg.linear_acceleration.z = a
-        msg.orientation_covariance = [-1, 0, 0, 0, 0, 0, 0, 0, 0]
-        msg.angular_velocity_covariance = [-1, 0, 0, 0, 0, 0, 0, 0, 0]
-        return msg
-
-    def joint_states(self, stamp):
-        from sensor_msgs.msg import JointState
-
-        msg = JointState()
-        msg.header.stamp = stamp
-        msg.name = [TILT_JOINT]
-        msg.position = [self.sim.tilt]
-        return msg
-
-    def people(self, stamp):
-        from geometry_msgs.msg import Point, Pose, Twist, Vector3
-
-        from florence_sim.msg import People, PersonState
-
-        msg = People()
-        msg.header.stamp = stamp
-        msg.header.frame_id = "map"
-        for p in self.sim.people.values():
-            msg.people.append(PersonState(p.id, Pose(Point(p.x, p.y, 0.0), _quaternion(p.yaw)),
-                                          Twist(Vector3(p.vx, p.vy, 0.0), Vector3()), p.posture, p.walking))
-        return msg
-
-    def markers(self, stamp):
-        from visualization_msgs.msg import Marker, MarkerArray
-
-        out = MarkerArray()
-        out.markers.append(Marker(action=Marker.DELETEALL))
-        for i, c in enumerate(cyl for p in self.sim.people.values() for cyl in p.primitives()):
-            mk = Marker()
-            mk.header.stamp = stamp
-            mk.header.frame_id = "map"
-            mk.ns, mk.id, mk.type, mk.action = "people", i, Marker.CYLINDER, Marker.ADD
-            mk.pose.position.x, mk.pose.position.y, mk.pose.position.z = c.x, c.y, (c.z0 + c.z1) / 2
-            mk.pose.orientation.w = 1.0
-            mk.scale.x = mk.scale.y = 2 * c.radius
-            mk.scale.z = c.z1 - c.z0
-            mk.color.r, mk.color.g, mk.color.b = c.color
-            mk.color.a = 1.0
-            out.markers.append(mk)
-        return out
-
-    def diagnostics(self, stamp, achieved, requested):
-        from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-
+    # ------------------------------------------------------------------ diagnostics
+    def _diag_base(self, stat):
         b = self.sim.base
         ox, oy, _ = b.odom_in_world()
-        arr = DiagnosticArray()
-        arr.header.stamp = stamp
-        base = DiagnosticStatus(level=DiagnosticStatus.WARN if b.bumps else DiagnosticStatus.OK,
-                                name="turtlebot_node: Base (simulated)",
-                                message="bumper pressed" if b.bumps else "OK", hardware_id="florence_sim")
-        base.values = [KeyValue("bumps_wheeldrops", str(b.bumps)), KeyValue("collisions", str(b.collisions)),
-                       KeyValue("odom_error_m", f"{math.hypot(b.x - ox, b.y - oy):.3f}")]
-        laser = DiagnosticStatus(level=DiagnosticStatus.OK, name="hokuyo_node: Hokuyo (simulated)",
-                                 message="OK", hardware_id="florence_sim URG-04LX")
-        sim = DiagnosticStatus(level=DiagnosticStatus.OK, name="florence_sim: Simulation", message="running",
-                               hardware_id="florence_sim")
-        sim.values = [KeyValue("sim_time_s", f"{self.sim.time:.2f}"),
-                      KeyValue("real_time_factor_requested", str(requested or "unthrottled")),
-                      KeyValue("real_time_factor_achieved", f"{achieved:.2f}"),
-                      KeyValue("people", str(len(self.sim.people)))]
-        arr.status = [base, laser, sim]
-        return arr
+        stat.summary(WARN if b.bumps else OK, "bumper pressed" if b.bumps else "OK")
+        stat.add("bumps_wheeldrops", b.bumps)
+        stat.add("collisions", b.collisions)
+        stat.add("odom_error_m", f"{math.hypot(b.x - ox, b.y - oy):.3f}")
+        return stat
+
+    def _diag_laser(self, stat):
+        stat.summary(OK, "OK")
+        stat.add("model", "URG-04LX (simulated)")
+        return stat
+
+    def _diag_sim(self, stat):
+        stat.summary(OK, "paused" if self.paused else "running")
+        stat.add("sim_time_s", f"{self.sim.time:.2f}")
+        stat.add("real_time_factor_requested", self.rtf or "unthrottled")
+        stat.add("real_time_factor_achieved", f"{self.achieved_rtf:.2f}")
+        stat.add("people", len(self.sim.people))
+        return stat
 
 
 def main():
-    import rospy
-
-    rospy.init_node(NAME)
-    node = SimNode()
-    thread = threading.Thread(target=node.spin, name="florence_sim_loop", daemon=True)
-    thread.start()
-    rospy.spin()
-    thread.join(2.0)
+    run(SimNode, NAME)

@@ -10,7 +10,8 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial.transform import Rotation
+
+from florence_common.pose import axis_angle_matrix, rpy_to_matrix
 
 ROOT = "base_footprint"
 
@@ -26,7 +27,7 @@ def _xyz_rpy(origin):
 def transform(xyz=(0, 0, 0), rpy=(0, 0, 0)):
     """4x4 matrix of a URDF origin (fixed-axis roll, pitch, yaw)."""
     m = np.eye(4)
-    m[:3, :3] = Rotation.from_euler("xyz", rpy).as_matrix()
+    m[:3, :3] = rpy_to_matrix(rpy)
     m[:3, 3] = xyz
     return m
 
@@ -137,5 +138,5 @@ class RobotModel:
 
 def _axis_rotation(axis, angle):
     m = np.eye(4)
-    m[:3, :3] = Rotation.from_rotvec(np.asarray(axis, dtype=float) * angle).as_matrix()
+    m[:3, :3] = axis_angle_matrix(axis, angle)
     return m

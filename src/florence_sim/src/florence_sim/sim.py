@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from florence_sim.base import DiffDriveBase
+from florence_sim.base import BaseConfig, DiffDriveBase
 from florence_sim.people import check_path
 from florence_sim.sensors import CameraConfig, DepthCamera, LaserConfig, UrgLaser, world_pose
 
@@ -49,8 +49,38 @@ class SimConfig:
     seed: int = 0
 
 
+def base_dimensions(robot):
+    """Footprint radius and wheel separation [m] of a :class:`robot_model.RobotModel`."""
+    left = robot.pose("left_wheel_link")[1, 3]
+    right = robot.pose("right_wheel_link")[1, 3]
+    return {"radius": robot.cylinder_radius("base_link"), "separation": abs(left - right)}
+
+
 class Simulator:
     """One robot in a world with people. ``robot`` is a :class:`robot_model.RobotModel`."""
+
+    @classmethod
+    def from_files(cls, world_file, people_file=None, robot=None, config=None, start=(0.0, 0.0, 0.0),
+                   **base_overrides):
+        """The simulator of a world file and a people file (None or "": nobody) with the robot
+        ``robot`` (a RobotModel; default: turtlebot_control's Florence TurtleBot), whose base
+        radius, height and wheel separation come from its description; ``base_overrides`` are
+        other :class:`base.BaseConfig` fields (cmd_timeout, gyro_scale_error, ...); the robot starts
+        at ``start`` (x, y, yaw) in the world. The node, the offline runs and the benchmarks all
+        build their simulator here. Raises WorldError (file and field) or ValueError."""
+        from florence_sim.people import load_people
+        from florence_sim.robot_model import RobotModel
+        from florence_sim.world import load_world
+
+        world = load_world(str(world_file))
+        people = load_people(str(people_file), world.scene) if people_file else []
+        robot = robot if robot is not None else RobotModel.from_xacro()
+        dims = base_dimensions(robot)
+        base = BaseConfig(radius=dims["radius"], height=robot.height(), wheel_separation=dims["separation"],
+                          **base_overrides)
+        sim = cls(world, robot, base, config, people, tuple(start))
+        sim.set_robot_pose(*start)
+        return sim
 
     def __init__(self, world, robot, base_config, config=None, people=(), start=(0.0, 0.0, 0.0)):
         self.cfg = config or SimConfig()
