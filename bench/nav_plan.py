@@ -1,98 +1,71 @@
-"""Benchmark of move_base's navfn global planner (move_base.navfn.NavfnPlanner.make_plan).
+"""Benchmark of move_base's planners on the costmaps the product builds: navfn's plan
+(move_base.navfn.NavfnPlanner.make_plan) and one cycle of the local planner.
 
-Run from the workspace root (no ROS needed):
-    PYTHONPATH=src/move_base/src /usr/bin/python3 bench/nav_plan.py [--repeat 5] [--big-plans 4]
-(or after `source devel/setup.bash`). Prints the figures and writes bench/results/nav_plan.json.
+    source devel/setup.bash && /usr/bin/python3 bench/nav_plan.py [--repeat 5] [--big-plans 6]
+
+Prints the figures and writes bench/results/nav_plan.json. No ROS master needed: the parameters
+are those move_base_turtlebot_control.launch gives move_base (read by roslaunch's loader,
+florence_eval.nav_config), and the costmaps are move_base's own layers
+(move_base.costmap_config.CostmapConfig: static layer, obstacle layer, inflation layer).
 
 Cases:
-- apartment: maps/apartment/apartment.yaml as a global costmap (occupied -> LETHAL, unknown ->
-  NO_INFORMATION, inflated with costmap_2d's formula: inscribed radius 0.18 m, inflation
-  radius 0.40 m, cost_scaling_factor 10), plans between every ordered pair of room hotspots
-  of maps/apartment/rooms.yaml. Target p50 <= 30 ms.
-- synthetic: a 2000 x 2000 cell (100 m x 100 m at 0.05 m) map with random rectangular obstacles,
-  inflated the same way, plans between far-apart free points. Target p50 <= 1 s.
+- apartment: the global costmap over maps/apartment/apartment.yaml (the map on the robot), plans
+  between every ordered pair of room hotspots of maps/apartment/rooms.yaml. Target p50 <= 30 ms.
+  ``costmap_update_ms``: one update of that costmap (static map and its inflation).
+- synthetic: the same costmap configuration over a 2000 x 2000 cell map (100 m x 100 m at 0.05 m)
+  with random rectangular obstacles, plans between far-apart free points. Target p50 <= 1 s.
+- local_planner: one control cycle (LocalPlanner.compute_velocity) with the launch file's
+  TrajectoryPlannerROS values (6 x 20 samples and the rotations, sim_time 1.5 s) on the local
+  costmap (4 m x 4 m rolling window at 0.05 m) with a corridor's walls marked by an observation,
+  along a winding plan. Target p99 <= 15 ms (the seed's controller_frequency is 5 Hz).
 numba's compile time is reported separately (``compile_s``: a fresh, uncached compile of the
 planner's jitted functions; ``first_call_s``: the first plan, which loads numba's on-disk cache
-when there is one); the timings exclude it (one warm-up plan first).
+when there is one); the timings exclude it (one warm-up call first).
 """
 
 import argparse
 import json
 import math
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 import yaml
-from PIL import Image
-from scipy.ndimage import distance_transform_edt
+from florence_eval.nav_config import move_base_params
+from map_server.mapfile import load_map
+from move_base.costmap_2d import FREE_SPACE
+from move_base.costmap_config import CostmapConfig
+from move_base.local_planner import LocalPlanner
+from move_base.trajectory_planner import PlannerParams
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT / "src" / "move_base" / "src"))
+from florence_common.maps import map_file
+from move_base import navfn
 
-from move_base.costmap_2d import (  # noqa: E402
-    FREE_SPACE,
-    INSCRIBED_INFLATED_OBSTACLE,
-    LETHAL_OBSTACLE,
-    NO_INFORMATION,
-    Costmap2D,
-)
-
-from move_base import navfn  # noqa: E402
-
-RESULTS = ROOT / "bench" / "results" / "nav_plan.json"
-MAP_YAML = ROOT / "maps" / "apartment" / "apartment.yaml"
-ROOMS_YAML = ROOT / "maps" / "apartment" / "rooms.yaml"
-TARGETS_MS = {"apartment": 30.0, "synthetic_2000": 1000.0}
-INSCRIBED_RADIUS = 0.18  # [m]
-INFLATION_RADIUS = 0.40  # [m]
-COST_SCALING_FACTOR = 10.0  # [1/m]
+RESULTS = Path(__file__).resolve().parent / "results" / "nav_plan.json"
+TARGETS_MS = {"apartment": 30.0, "synthetic_2000": 1000.0}  # p50
+LOCAL_TARGET_MS = 15.0  # p99
 
 
-def inflate(lethal, unknown, resolution):
-    """costmap_2d's inflation of a boolean lethal mask: 254 on lethal cells, 253 within the
-    inscribed radius, ``252 * exp(-k (d - r_inscribed))`` out to the inflation radius [m]."""
-    d = distance_transform_edt(~lethal) * resolution  # [m] to the nearest lethal cell centre
-    costs = np.where(unknown, NO_INFORMATION, FREE_SPACE).astype(np.int64)
-    ring = (d <= INFLATION_RADIUS) & ~lethal
-    decay = ((INSCRIBED_INFLATED_OBSTACLE - 1) * np.exp(-COST_SCALING_FACTOR * (d - INSCRIBED_RADIUS))).astype(np.int64)
-    inflated = np.where(d <= INSCRIBED_RADIUS, INSCRIBED_INFLATED_OBSTACLE, decay)
-    # costmap_2d's InflationLayer (inflate_unknown false): an unknown cell takes the inflation cost
-    # only when it is >= INSCRIBED, a known one the larger of both
-    is_unknown = costs == NO_INFORMATION
-    raise_known = ring & ~is_unknown & (inflated > costs)
-    raise_unknown = ring & is_unknown & (inflated >= INSCRIBED_INFLATED_OBSTACLE)
-    costs = np.where(raise_known | raise_unknown, inflated, costs)
-    costs[lethal] = LETHAL_OBSTACLE
-    return costs.astype(np.uint8)
-
-
-def load_map(path):
-    """Costmap2D of a map_server YAML + PGM (trinary: occupied / free / unknown)."""
-    meta = yaml.safe_load(Path(path).read_text())
-    img = np.asarray(Image.open(Path(path).parent / meta["image"]).convert("L"), dtype=float)
-    p = (255.0 - img) / 255.0 if not meta.get("negate", 0) else img / 255.0  # occupancy probability
-    p = p[::-1]  # image row 0 is the top (max y); costs[0] is the bottom row (min y)
-    lethal = p > meta["occupied_thresh"]
-    unknown = ~lethal & ~(p < meta["free_thresh"])
-    res = float(meta["resolution"])
-    cm = Costmap2D(p.shape[1], p.shape[0], res, meta["origin"][0], meta["origin"][1])
-    cm.costs[...] = inflate(lethal, unknown, res)
-    return cm
+def global_costmap(params, data, resolution, origin=(0.0, 0.0)):
+    """move_base's global costmap (the launch file's ``global_costmap`` values) over a map (row-major
+    int8 OccupancyGrid values), updated once: (costmap, update time [ms])."""
+    layered = CostmapConfig.read(params["global_costmap"].get).layered()
+    height, width = data.shape
+    layered.set_static_map(data.ravel(), width, height, resolution, origin[0], origin[1])
+    t0 = time.perf_counter()
+    layered.update(origin[0], origin[1])
+    return layered.costmap, (time.perf_counter() - t0) * 1e3
 
 
 def synthetic_map(size, seed):
+    """OccupancyGrid values (size x size, int8) with random rectangles (one per 100 x 100 cells on average)."""
     rng = np.random.default_rng(seed)
-    lethal = np.zeros((size, size), dtype=bool)
-    n = size * size // 10000  # one obstacle per 100 x 100 cells on average
-    for _ in range(n):
+    data = np.zeros((size, size), dtype=np.int8)
+    for _ in range(size * size // 10000):
         x, y = rng.integers(0, size - 10, 2)
         w, h = rng.integers(3, 60, 2)
-        lethal[y:y + h, x:x + w] = True
-    cm = Costmap2D(size, size, 0.05)
-    cm.costs[...] = inflate(lethal, np.zeros_like(lethal), cm.resolution)
-    return cm
+        data[y:y + h, x:x + w] = 100
+    return data
 
 
 def free_points(cm, rng, count, margin):
@@ -115,6 +88,12 @@ def compile_time():
     return time.perf_counter() - t0
 
 
+def timings(samples_ms):
+    s = np.asarray(samples_ms)
+    return {"p50_ms": float(np.percentile(s, 50)), "p99_ms": float(np.percentile(s, 99)), "max_ms": float(s.max()),
+            "n": len(s)}
+
+
 def run_case(planner, cm, pairs, repeat):
     samples, fails, lengths = [], [], []
     for _ in range(repeat):
@@ -126,10 +105,39 @@ def run_case(planner, cm, pairs, repeat):
                 fails.append(f"{start[:2]} -> {goal[:2]}: {res.reason}")
             else:
                 lengths.append(float(np.sum(np.hypot(*np.diff(res.poses[:, :2], axis=0).T))))
-    s = np.array(samples)
-    return {"p50_ms": float(np.percentile(s, 50)), "p99_ms": float(np.percentile(s, 99)), "max_ms": float(s.max()),
-            "n": len(s), "cells": int(cm.costs.size), "failures": sorted(set(fails)),
+    return {**timings(samples), "cells": int(cm.costs.size), "failures": sorted(set(fails)),
             "mean_path_length_m": float(np.mean(lengths)) if lengths else None}
+
+
+def local_planner_case(params, cycles=100):
+    """Cycle times of the local planner in a corridor 1.6 m wide (walls marked through the obstacle
+    layer) of the local costmap, the robot weaving along a winding plan."""
+    cfg = CostmapConfig.read(params["local_costmap"].get)
+    layered = cfg.layered()
+    wall_x = np.arange(-2.0, 2.0, 0.02)
+    walls = np.concatenate([np.column_stack([wall_x, np.full_like(wall_x, y), np.full_like(wall_x, 0.1)])
+                            for y in (-0.8, 0.8)])
+    source = cfg.sources[0].name
+    layered.obstacles.add_observation(source, np.array([0.0, 0.0, 0.1]), walls, stamp=0.0, now=0.0)
+    layered.update(0.0, 0.0)
+    cm = layered.costmap
+    tp = dict(params["TrajectoryPlannerROS"])
+    tp.setdefault("controller_frequency", params.get("controller_frequency", 20.0))
+    lp = LocalPlanner(PlannerParams.from_dict(tp), cfg.footprint, layered.inscribed_radius,
+                      layered.circumscribed_radius)
+    t = np.linspace(0.0, 1.0, 120)
+    plan = np.column_stack([-1.8 + 3.6 * t, 0.2 * np.sin(3.0 * t), np.zeros_like(t)])
+    lp.set_plan(plan)
+    lp.compute_velocity(cm, (0.0, 0.0, 0.2), (0.3, 0.0, 0.1), plan)  # warm-up: numba compile or cache load
+    samples = []
+    for i in range(cycles):
+        pose = (-1.0 + 0.02 * i, 0.2 * math.sin(0.1 * i), 0.2 * math.cos(0.1 * i))
+        t0 = time.perf_counter()
+        lp.compute_velocity(cm, pose, (0.3, 0.0, 0.1), plan)
+        samples.append((time.perf_counter() - t0) * 1e3)
+    p = lp.params
+    return {**timings(samples), "samples": p.vx_samples * p.vtheta_samples + p.vtheta_samples + 1,
+            "costmap": f"{cm.size_x} x {cm.size_y} cells at {cm.resolution} m"}
 
 
 def main():
@@ -137,12 +145,15 @@ def main():
     ap.add_argument("--repeat", type=int, default=5, help="passes over the apartment's room pairs")
     ap.add_argument("--big-size", type=int, default=2000, help="synthetic map side [cells]")
     ap.add_argument("--big-plans", type=int, default=6, help="plans on the synthetic map")
+    ap.add_argument("--cycles", type=int, default=100, help="local planner cycles timed")
     ap.add_argument("--seed", type=int, default=1)
     args = ap.parse_args()
 
-    planner = navfn.NavfnPlanner(allow_unknown=True, default_tolerance=0.0)
-    apartment = load_map(MAP_YAML)
-    rooms = yaml.safe_load(ROOMS_YAML.read_text())["rooms"]
+    params = move_base_params()
+    planner = navfn.NavfnPlanner(**params.get("NavfnROS", {}))
+    grid = load_map(map_file("apartment", "apartment.yaml"))
+    apartment, update_ms = global_costmap(params, grid.data, grid.resolution, grid.origin[:2])
+    rooms = yaml.safe_load(map_file("apartment", "rooms.yaml").read_text())["rooms"]
     spots = {name: (r["hotspot"]["x"], r["hotspot"]["y"], r["hotspot"]["phi"]) for name, r in sorted(rooms.items())}
     pairs = [(spots[a], spots[b]) for a in spots for b in spots if a != b]
 
@@ -154,9 +165,10 @@ def main():
     results = {"compile_s": compile_s, "first_call_s": first_call, "targets_ms_p50": TARGETS_MS}
     results["apartment"] = run_case(planner, apartment, pairs, args.repeat)
     results["apartment"]["map"] = f"{apartment.size_x} x {apartment.size_y} cells at {apartment.resolution} m"
+    results["apartment"]["costmap_update_ms"] = update_ms
 
     rng = np.random.default_rng(args.seed)
-    big = synthetic_map(args.big_size, args.seed)
+    big, big_update_ms = global_costmap(params, synthetic_map(args.big_size, args.seed), 0.05)
     pts = free_points(big, rng, 4 * args.big_plans, margin=5)
     # far-apart pairs: of random candidates, keep the ones at least half the map's side apart
     side = big.size_x * big.resolution
@@ -165,14 +177,23 @@ def main():
     planner.make_plan(big, *big_pairs[0])  # warm-up at this size (allocation)
     results["synthetic_2000"] = run_case(planner, big, big_pairs, 1)
     results["synthetic_2000"]["map"] = f"{big.size_x} x {big.size_y} cells at {big.resolution} m, seed {args.seed}"
+    results["synthetic_2000"]["costmap_update_ms"] = big_update_ms
+
+    results["local_planner"] = local_planner_case(params, args.cycles)
+    results["local_planner"]["target_ms_p99"] = LOCAL_TARGET_MS
 
     for case in ("apartment", "synthetic_2000"):
         r = results[case]
         verdict = "ok" if r["p50_ms"] <= TARGETS_MS[case] else "OVER TARGET"
         print(f"{case:15s} p50 {r['p50_ms']:8.2f} ms  p99 {r['p99_ms']:8.2f} ms  max {r['max_ms']:8.2f} ms  "
-              f"n {r['n']:3d}  ({r['map']}; target p50 <= {TARGETS_MS[case]:.0f} ms: {verdict})")
+              f"n {r['n']:3d}  ({r['map']}; costmap update {r['costmap_update_ms']:.0f} ms; "
+              f"target p50 <= {TARGETS_MS[case]:.0f} ms: {verdict})")
         for f in r["failures"]:
             print(f"    failed: {f}")
+    r = results["local_planner"]
+    verdict = "ok" if r["p99_ms"] <= LOCAL_TARGET_MS else "OVER TARGET"
+    print(f"{'local_planner':15s} p50 {r['p50_ms']:8.2f} ms  p99 {r['p99_ms']:8.2f} ms  max {r['max_ms']:8.2f} ms  "
+          f"n {r['n']:3d}  ({r['samples']} samples, {r['costmap']}; target p99 <= {LOCAL_TARGET_MS:.0f} ms: {verdict})")
     print(f"numba compile (fresh, uncached) {compile_s:.2f} s; first plan (compile or cache load) {first_call:.2f} s")
     RESULTS.parent.mkdir(parents=True, exist_ok=True)
     RESULTS.write_text(json.dumps(results, indent=2) + "\n")

@@ -7,6 +7,8 @@ import numpy as np
 import pytest
 from florence_eval.amcl_offline import LAUNCH, global_starts, launch_params, make_config
 
+pytestmark = pytest.mark.unit
+
 pytest.importorskip("florence_sim")
 pytest.importorskip("xacro")
 

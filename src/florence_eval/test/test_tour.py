@@ -17,6 +17,8 @@ from florence_eval.tour import (
     travelled,
 )
 
+pytestmark = pytest.mark.unit
+
 
 @pytest.mark.parametrize(("pose", "target", "expect"), [
     ((0, 0, 0), (1, 0), "drive"),              # straight ahead

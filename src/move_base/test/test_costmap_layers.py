@@ -21,6 +21,8 @@ from move_base.layers import (
     inflation_cost,
 )
 
+pytestmark = pytest.mark.unit
+
 SEED_FOOTPRINT = [[-0.16, -0.16], [-0.16, 0.16], [0.19, 0.16], [0.24, 0.0], [0.19, -0.16]]
 PADDED = pad_footprint(parse_footprint(SEED_FOOTPRINT), 0.01)
 

@@ -15,6 +15,7 @@ import pytest
 
 pytestmark = pytest.mark.ros
 
+
 NAME = "cmtest_costmap"
 SEED_FOOTPRINT = [[-0.16, -0.16], [-0.16, 0.16], [0.19, 0.16], [0.24, 0.0], [0.19, -0.16]]
 

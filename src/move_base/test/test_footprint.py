@@ -12,6 +12,8 @@ from move_base.footprint import (
     transform_footprint,
 )
 
+pytestmark = pytest.mark.unit
+
 SEED = [[-0.16, -0.16], [-0.16, 0.16], [0.19, 0.16], [0.24, 0.0], [0.19, -0.16]]
 
 

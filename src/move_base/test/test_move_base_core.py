@@ -5,8 +5,10 @@ from dataclasses import dataclass
 
 import numpy as np
 import pytest
-from move_base.move_base_core import CLEARING, CONTROLLING, PLANNING, MoveBaseCore, MoveBaseParams
+from move_base.move_base_core import CLEARING, CONTROLLING, PLANNING, MoveBaseCore, core_params
 from move_base.recovery import ClearCostmapRecovery, RotateRecovery, default_recovery_specs
+
+pytestmark = pytest.mark.unit
 
 
 @dataclass
@@ -83,7 +85,7 @@ def run(core, pose=POSE, t0=0.0, dt=0.2, n=200):
 
 def test_plan_then_control_then_succeed():
     ctrl = FakeController(reached_after=5)
-    core = MoveBaseCore(MoveBaseParams(), FakePlanner([GOOD]), ctrl, [])
+    core = MoveBaseCore(core_params(), FakePlanner([GOOD]), ctrl, [])
     core.set_goal((1.0, 0.0, 0.0), 0.0, POSE)
     first = core.cycle(0.0, POSE)
     assert core.state == CONTROLLING and first.cmd == (0.3, 0.0, 0.1) and first.new_plan is GOOD
@@ -96,7 +98,7 @@ def test_plan_then_control_then_succeed():
 def test_planner_patience_then_recoveries_then_abort_with_reason():
     planner = FakePlanner([Plan(False, reason="no path from (0.00, 0.00) to (5.00, 0.00)")])
     recs = [FakeRecovery("conservative_reset"), FakeRecovery("rotate_recovery", steps=3)]
-    core = MoveBaseCore(MoveBaseParams(planner_patience=1.0), planner, FakeController(), recs)
+    core = MoveBaseCore(core_params(planner_patience=1.0), planner, FakeController(), recs)
     core.set_goal((5.0, 0.0, 0.0), 0.0, POSE)
     outcome, text, t_end, results = run(core)
     assert outcome == "aborted"
@@ -111,7 +113,7 @@ def test_planner_patience_then_recoveries_then_abort_with_reason():
 
 def test_max_planning_retries_counts_attempts():
     planner = FakePlanner([Plan(False, reason="no path")])
-    core = MoveBaseCore(MoveBaseParams(planner_patience=100.0, max_planning_retries=2, recovery_behavior_enabled=False),
+    core = MoveBaseCore(core_params(planner_patience=100.0, max_planning_retries=2, recovery_behavior_enabled=False),
                         planner, FakeController(), [FakeRecovery("r")])
     core.set_goal((5.0, 0.0, 0.0), 0.0, POSE)
     outcome, text, _, _ = run(core)
@@ -121,7 +123,7 @@ def test_max_planning_retries_counts_attempts():
 
 def test_permanent_planning_failure_aborts_at_once():
     planner = FakePlanner([Plan(False, reason="the goal (50.00, 0.00) is off the global costmap", permanent=True)])
-    core = MoveBaseCore(MoveBaseParams(), planner, FakeController(), [FakeRecovery("r")])
+    core = MoveBaseCore(core_params(), planner, FakeController(), [FakeRecovery("r")])
     core.set_goal((50.0, 0.0, 0.0), 0.0, POSE)
     r = core.cycle(0.0, POSE)
     assert r.outcome == "aborted" and "off the global costmap" in r.text
@@ -131,7 +133,7 @@ def test_controller_failure_replans_then_clears_after_patience():
     ctrl = FakeController(ok=False)
     planner = FakePlanner([GOOD])
     rec = FakeRecovery("conservative_reset")
-    core = MoveBaseCore(MoveBaseParams(controller_patience=3.0), planner, ctrl, [rec])
+    core = MoveBaseCore(core_params(controller_patience=3.0), planner, ctrl, [rec])
     core.set_goal((1.0, 0.0, 0.0), 0.0, POSE)
     r = core.cycle(0.0, POSE)
     assert r.cmd == (0.0, 0.0, 0.0) and core.state == PLANNING  # no command: plan again
@@ -147,7 +149,7 @@ def test_controller_failure_replans_then_clears_after_patience():
 
 def test_oscillation_timeout():
     ctrl = FakeController()
-    core = MoveBaseCore(MoveBaseParams(oscillation_timeout=2.0, oscillation_distance=0.5), FakePlanner([GOOD]), ctrl,
+    core = MoveBaseCore(core_params(oscillation_timeout=2.0, oscillation_distance=0.5), FakePlanner([GOOD]), ctrl,
                         [FakeRecovery("r")])
     core.set_goal((3.0, 0.0, 0.0), 0.0, POSE)
     outcome, text, t_end, _ = run(core)  # the robot never moves
@@ -157,7 +159,7 @@ def test_oscillation_timeout():
 
 def test_moving_resets_the_oscillation_clock():
     ctrl = FakeController(reached_after=60)
-    core = MoveBaseCore(MoveBaseParams(oscillation_timeout=2.0), FakePlanner([GOOD]), ctrl, [])
+    core = MoveBaseCore(core_params(oscillation_timeout=2.0), FakePlanner([GOOD]), ctrl, [])
     core.set_goal((30.0, 0.0, 0.0), 0.0, POSE)
     outcome, _, _, _ = run(core, pose=lambda t: (0.3 * t, 0.0, 0.0))  # 0.3 m/s: 0.5 m every 1.7 s
     assert outcome == "succeeded"
@@ -165,7 +167,7 @@ def test_moving_resets_the_oscillation_clock():
 
 def test_stale_sensors_stop_the_robot_then_abort_saying_so():
     fresh = {"ok": True}
-    core = MoveBaseCore(MoveBaseParams(controller_patience=2.0), FakePlanner([GOOD]), FakeController(), [],
+    core = MoveBaseCore(core_params(controller_patience=2.0), FakePlanner([GOOD]), FakeController(), [],
                         sensors_current=lambda: (fresh["ok"], "scan (/filtered_scan) last seen 3.1 s ago"))
     core.set_goal((3.0, 0.0, 0.0), 0.0, POSE)
     assert core.cycle(0.0, POSE).cmd == (0.3, 0.0, 0.1)
@@ -177,7 +179,7 @@ def test_stale_sensors_stop_the_robot_then_abort_saying_so():
 
 
 def test_no_pose_is_a_transform_timeout():
-    core = MoveBaseCore(MoveBaseParams(controller_patience=1.0), FakePlanner([GOOD]), FakeController(), [])
+    core = MoveBaseCore(core_params(controller_patience=1.0), FakePlanner([GOOD]), FakeController(), [])
     core.set_goal((3.0, 0.0, 0.0), 0.0, POSE)
     outcome, text, _, _ = run(core, pose=None)
     assert outcome == "aborted" and text.startswith("Transform timeout")
@@ -186,7 +188,7 @@ def test_no_pose_is_a_transform_timeout():
 def test_reset_mid_recovery_stops_stepping():
     planner = FakePlanner([Plan(False, reason="no path")])
     rec = FakeRecovery("rotate_recovery", steps=100)
-    core = MoveBaseCore(MoveBaseParams(planner_patience=0.0), planner, FakeController(), [rec])
+    core = MoveBaseCore(core_params(planner_patience=0.0), planner, FakeController(), [rec])
     core.set_goal((5.0, 0.0, 0.0), 0.0, POSE)
     for i in range(5):
         core.cycle(i * 0.2, POSE)
@@ -200,7 +202,7 @@ def test_reset_mid_recovery_stops_stepping():
                                  {"oscillation_distance": math.nan}])
 def test_params_are_validated(bad):
     with pytest.raises(ValueError, match=next(iter(bad))):
-        MoveBaseParams(**bad).validate()
+        core_params(**bad)
 
 
 # --- recoveries --------------------------------------------------------------------------------
@@ -273,12 +275,12 @@ def test_max_recovery_restarts_ends_a_robot_shuffling_on_the_spot():
     def shuffle(t):  # back and forth by 0.6 m every 12 s: never oscillation_timeout-free for long
         return (0.6 if int(t // 12) % 2 else 0.0, 0.0, 0.0)
 
-    core = MoveBaseCore(MoveBaseParams(oscillation_timeout=5.0, max_recovery_restarts=2), FakePlanner([GOOD]), ctrl,
+    core = MoveBaseCore(core_params(oscillation_timeout=5.0, max_recovery_restarts=2), FakePlanner([GOOD]), ctrl,
                         recs)
     core.set_goal((5.0, 0.0, 0.0), 0.0, POSE)
     outcome, text, _, _ = run(core, pose=shuffle, n=5000)
     assert outcome == "aborted" and "started over 3 times" in text and text.startswith("Robot is oscillating")
-    unlimited = MoveBaseCore(MoveBaseParams(oscillation_timeout=5.0), FakePlanner([GOOD]), FakeController(),
+    unlimited = MoveBaseCore(core_params(oscillation_timeout=5.0), FakePlanner([GOOD]), FakeController(),
                              [FakeRecovery("a"), FakeRecovery("b")])
     unlimited.set_goal((5.0, 0.0, 0.0), 0.0, POSE)
     assert run(unlimited, pose=shuffle, n=5000)[0] is None  # ROS: on and on

@@ -22,6 +22,8 @@ from move_base.costmap_2d import (
 )
 from move_base.navfn import NavfnPlanner, translate_costs
 
+pytestmark = pytest.mark.unit
+
 RES = 0.05  # [m]
 ORIGIN = (-1.0, 0.5)  # [m], not zero so world/map mix-ups show
 

@@ -24,6 +24,8 @@ from move_base.trajectory_planner import (
     poses_are_free,
 )
 
+pytestmark = pytest.mark.unit
+
 # The seed's files (turtlebot_control/config): footprint padded by footprint_padding, and
 # base_local_planner_params.yaml with its old parameter names and its controller_frequency.
 _CONFIG = Path(__file__).resolve().parents[2] / "turtlebot_control" / "config"

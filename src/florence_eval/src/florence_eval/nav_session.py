@@ -16,22 +16,17 @@ import rospy
 from actionlib_msgs.msg import GoalStatus
 from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from nav_msgs.msg import Odometry
+from nav_msgs.srv import GetPlan
 from std_msgs.msg import UInt32
+
+from florence_common_ros import convert
 
 STATE_NAMES = {v: k for k, v in vars(GoalStatus).items() if isinstance(v, int) and k.isupper()}
 
 
-def _yaw(q):
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
-
-
 def make_goal(x, y, yaw, frame="map"):
-    goal = MoveBaseGoal()
-    goal.target_pose.header.frame_id = frame
-    goal.target_pose.pose.position.x, goal.target_pose.pose.position.y = float(x), float(y)
-    goal.target_pose.pose.orientation.z = math.sin(yaw / 2.0)
-    goal.target_pose.pose.orientation.w = math.cos(yaw / 2.0)
-    return goal
+    """A MoveBaseGoal at (x [m], y [m]) heading ``yaw`` [rad] in ``frame``."""
+    return MoveBaseGoal(target_pose=convert.pose_stamped(x, y, yaw, frame))
 
 
 class NavSession:
@@ -43,6 +38,7 @@ class NavSession:
         self.collisions = 0
         self.collision_poses = []  # ground truth (t, x, y, yaw, v, w) when the bumper count went up
         self.client = actionlib.SimpleActionClient(action, MoveBaseAction)
+        self._make_plan = None  # ~make_plan's proxy, made on first use
         self.subs = [
             rospy.Subscriber("base_pose_ground_truth", Odometry, self._on_truth, queue_size=100),
             rospy.Subscriber("collisions", UInt32, self._on_collisions, queue_size=10),
@@ -51,7 +47,7 @@ class NavSession:
     def _on_truth(self, msg):
         p, t = msg.pose.pose, msg.twist.twist
         with self.lock:
-            self.truth.append((msg.header.stamp.to_sec(), p.position.x, p.position.y, _yaw(p.orientation),
+            self.truth.append((msg.header.stamp.to_sec(), p.position.x, p.position.y, convert.yaw_of(p.orientation),
                                math.hypot(t.linear.x, t.linear.y), t.angular.z))
 
     def _on_collisions(self, msg):
@@ -106,6 +102,19 @@ class NavSession:
                 return True
             time.sleep(0.05)
         return False
+
+    # --- plans -------------------------------------------------------------------------------------
+    def plan(self, start, goal, frame="map", service="/move_base/make_plan", timeout=60.0):
+        """The (N, 2) path [m] move_base's ~make_plan gives from ``start`` to ``goal`` (x, y, yaw) in
+        ``frame`` with tolerance 0, or None when it finds none."""
+        if self._make_plan is None:
+            rospy.wait_for_service(service, timeout)
+            self._make_plan = rospy.ServiceProxy(service, GetPlan)
+        plan = self._make_plan(start=convert.pose_stamped(*start, frame), goal=convert.pose_stamped(*goal, frame),
+                               tolerance=0.0).plan
+        if not plan.poses:
+            return None
+        return np.array([[p.pose.position.x, p.pose.position.y] for p in plan.poses])
 
     # --- goals ---------------------------------------------------------------------------------
     def send(self, x, y, yaw, frame="map"):

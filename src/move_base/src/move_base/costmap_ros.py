@@ -1,30 +1,10 @@
 """costmap_2d's Costmap2DROS in Python: parameters, sensor and map subscriptions, tf, the update
 thread and the costmap publisher around a :class:`move_base.layers.LayeredCostmap`.
 
-ROS Parameters (all in ``~<name>/``, read once, ROS defaults; pre-Hydro flat layout):
-    global_frame (str, "/map"): frame of the grid (a leading '/' is dropped: tf2 refuses it).
-    robot_base_frame (str, "base_link"): the robot's frame.
-    transform_tolerance (float, 0.3, s): oldest robot pose accepted.
-    update_frequency (float, 5.0, Hz): update-loop rate (0: no loop, ``update_now`` only).
-    publish_frequency (float, 0.0, Hz): rate of ``~<name>/costmap`` (0: never).
-    static_map (bool, true): use the map on ``map_topic`` (a global costmap takes its geometry; a
-        rolling window in another frame places the map through tf at each update).
-    rolling_window (bool, false): the grid follows the robot.
-    width, height (float, 10.0, m), resolution (float, 0.05, m), origin_x, origin_y (float, 0.0, m).
-    map_topic (str, "map"): the static map's topic.
-    track_unknown_space (bool, false): keep unknown cells NO_INFORMATION.
-    lethal_cost_threshold (int, 100): map value from which a cell is lethal.
-    obstacle_range (float, 2.5, m), raytrace_range (float, 3.0, m), max_obstacle_height (float, 2.0, m):
-        defaults of the observation sources.
-    footprint (list of [x, y] or its string, m), robot_radius (float, 0.46, m) when there is none,
-    footprint_padding (float, 0.01, m).
-    inflation_radius (float, 0.55, m), cost_scaling_factor (float, 10.0, 1/m).
-    observation_sources (str, ""): space-separated source names; each ``<source>`` a dict with
-        topic (source name), sensor_frame (""; the message's frame), data_type ("PointCloud";
-        LaserScan | PointCloud | PointCloud2), marking (true), clearing (false),
-        observation_persistence (0.0, s), expected_update_rate (0.0, s),
-        min_obstacle_height (0.0, m), max_obstacle_height, obstacle_range, raytrace_range (the
-        costmap's), inf_is_valid (false).
+ROS Parameters (all in ``~<name>/``, read once, costmap_2d's names and defaults; pre-Hydro flat
+layout): :data:`move_base.costmap_config.PARAMS`, and for each of ``observation_sources`` a
+dictionary ``~<name>/<source>`` of :data:`move_base.costmap_config.SOURCE_PARAMS` (rendered in
+the README).
 
 ROS Publishers:
     ~<name>/costmap (nav_msgs/OccupancyGrid, latched): the costs translated as costmap_2d's
@@ -47,12 +27,12 @@ import threading
 
 import numpy as np
 
-from move_base.footprint import circumscribed_radius, pad_footprint, parse_footprint, transform_footprint
-from move_base.layers import LayeredCostmap, ObservationSource
+from florence_common.params import ParamError
+from florence_common_ros import convert
+from move_base.costmap_config import CostmapConfig
+from move_base.footprint import circumscribed_radius, transform_footprint
 
 log = logging.getLogger(__name__)
-
-DATA_TYPES = ("LaserScan", "PointCloud", "PointCloud2")
 
 
 def cost_translation_table():
@@ -69,30 +49,13 @@ def cost_translation_table():
 _TABLE = cost_translation_table()
 
 
-def yaw_of(q):
-    """Yaw [rad] of a geometry_msgs/Quaternion (its rotation about z)."""
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
-
-
-def pose_to_xyyaw(transform_stamped):
-    """(x [m], y [m], yaw [rad]) of a geometry_msgs/TransformStamped."""
-    t = transform_stamped.transform
-    return t.translation.x, t.translation.y, yaw_of(t.rotation)
-
-
 def strip_slash(frame):
     return frame.lstrip("/") if frame else frame
 
 
-def quaternion_matrix(x, y, z, w):
-    """3x3 rotation matrix of a unit quaternion."""
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-        ]
-    )
+def _turns_the_map(q):
+    """Whether a map's origin orientation turns it (a zero quaternion, an unset field, does not)."""
+    return any((q.x, q.y, q.z, q.w)) and abs(convert.yaw_of(q)) > 1e-6
 
 
 def scan_to_points(ranges, angle_min, angle_increment, range_min, range_max, raytrace_range, inf_is_valid=False):
@@ -129,107 +92,24 @@ class Costmap2DROS:
         self.tf_buffer = tf_buffer
         self.lock = threading.Lock()
         ns = f"~{name}/"
-
-        def param(key, default):
-            return rospy.get_param(ns + key, default)
-
-        self.global_frame = strip_slash(str(param("global_frame", "/map")))
-        self.base_frame = strip_slash(str(param("robot_base_frame", "base_link")))
-        self.transform_tolerance = float(param("transform_tolerance", 0.3))
-        self.update_frequency = float(param("update_frequency", 5.0))
-        self.publish_frequency = float(param("publish_frequency", 0.0))
-        self.static_map = bool(param("static_map", True))
-        self.rolling_window = bool(param("rolling_window", False))
-        width = float(param("width", 10.0))
-        height = float(param("height", 10.0))
-        resolution = float(param("resolution", 0.05))
-        origin_x = float(param("origin_x", 0.0))
-        origin_y = float(param("origin_y", 0.0))
-        self.map_topic = str(param("map_topic", "map"))
-        track_unknown = bool(param("track_unknown_space", False))
-        lethal = int(param("lethal_cost_threshold", 100))
-        obstacle_range = float(param("obstacle_range", 2.5))
-        raytrace_range = float(param("raytrace_range", 3.0))
-        max_obstacle_height = float(param("max_obstacle_height", 2.0))
-        robot_radius = float(param("robot_radius", 0.46))
-        padding = float(param("footprint_padding", 0.01))
-        inflation_radius = float(param("inflation_radius", 0.55))
-        cost_scaling_factor = float(param("cost_scaling_factor", 10.0))
-        checks = [
-            ("transform_tolerance", self.transform_tolerance >= 0.0),
-            ("update_frequency", self.update_frequency >= 0.0),
-            ("publish_frequency", self.publish_frequency >= 0.0),
-            ("width", width > 0.0),
-            ("height", height > 0.0),
-            ("resolution", resolution > 0.0),
-            ("lethal_cost_threshold", 0 < lethal <= 100),
-            ("obstacle_range", obstacle_range >= 0.0),
-            ("raytrace_range", raytrace_range >= 0.0),
-            ("robot_radius", robot_radius > 0.0),
-            ("footprint_padding", padding >= 0.0),
-            ("inflation_radius", inflation_radius >= 0.0),
-            ("cost_scaling_factor", cost_scaling_factor >= 0.0),
-        ]
-        for key, ok in checks:
-            if not ok:
-                raise ValueError(f"{name}: parameter {ns}{key} = {param(key, None)!r} is out of range")
-        if not self.global_frame or not self.base_frame:
-            raise ValueError(f"{name}: parameters {ns}global_frame and {ns}robot_base_frame must not be empty")
         try:
-            footprint = parse_footprint(param("footprint", None), robot_radius)
-        except ValueError as exc:
-            raise ValueError(f"{name}: parameter {ns}footprint: {exc}") from None
-        self.footprint = pad_footprint(footprint, padding)
-
-        self.sources = []
-        self._source_cfg = {}
-        for source in str(param("observation_sources", "")).split():
-            cfg = param(source, {})
-            if not isinstance(cfg, dict):
-                raise ValueError(f"{name}: parameter {ns}{source} must be a dictionary, got {cfg!r}")
-            data_type = str(cfg.get("data_type", "PointCloud"))
-            if data_type not in DATA_TYPES:
-                raise ValueError(f"{name}: parameter {ns}{source}/data_type {data_type!r} is not one of {DATA_TYPES}")
-            src = ObservationSource(
-                name=source,
-                obstacle_range=float(cfg.get("obstacle_range", obstacle_range)),
-                raytrace_range=float(cfg.get("raytrace_range", raytrace_range)),
-                min_obstacle_height=float(cfg.get("min_obstacle_height", 0.0)),
-                max_obstacle_height=float(cfg.get("max_obstacle_height", max_obstacle_height)),
-                marking=bool(cfg.get("marking", True)),
-                clearing=bool(cfg.get("clearing", False)),
-                observation_persistence=float(cfg.get("observation_persistence", 0.0)),
-                expected_update_rate=float(cfg.get("expected_update_rate", 0.0)),
-            )
-            for key in ("obstacle_range", "raytrace_range", "observation_persistence", "expected_update_rate"):
-                if getattr(src, key) < 0.0:
-                    raise ValueError(f"{name}: parameter {ns}{source}/{key} must not be negative")
-            self.sources.append(src)
-            self._source_cfg[source] = {
-                "topic": str(cfg.get("topic", source)),
-                "sensor_frame": strip_slash(str(cfg.get("sensor_frame", ""))),
-                "data_type": data_type,
-                "inf_is_valid": bool(cfg.get("inf_is_valid", False)),
-            }
-
-        size_x = max(1, int(width / resolution))
-        size_y = max(1, int(height / resolution))
-        self.layered = LayeredCostmap(
-            size_x,
-            size_y,
-            resolution,
-            origin_x,
-            origin_y,
-            footprint=self.footprint,
-            rolling_window=self.rolling_window,
-            track_unknown_space=track_unknown,
-            static_map=self.static_map,
-            sources=self.sources,
-            inflation_radius=inflation_radius,
-            cost_scaling_factor=cost_scaling_factor,
-            lethal_cost_threshold=lethal,
-            now=rospy.get_time(),
-        )
+            cfg = CostmapConfig.read(lambda key, default: rospy.get_param(ns + key, default))
+        except ParamError as exc:
+            raise ParamError(f"{name} ({ns}): {exc}") from None
+        p = self.params = cfg.params
+        self.global_frame = p.global_frame
+        self.base_frame = p.robot_base_frame
+        self.transform_tolerance = p.transform_tolerance
+        self.update_frequency = p.update_frequency
+        self.publish_frequency = p.publish_frequency
+        self.static_map = p.static_map
+        self.rolling_window = p.rolling_window
+        self.map_topic = p.map_topic
+        self.footprint = cfg.footprint
+        self.sources = list(cfg.sources)
+        self._inputs = cfg.inputs
+        size_x, size_y = cfg.size
+        self.layered = cfg.layered(now=rospy.get_time())
         self.inscribed_radius = self.layered.inscribed_radius
         self.circumscribed_radius = circumscribed_radius(self.footprint)
 
@@ -238,6 +118,7 @@ class Costmap2DROS:
         self._thread = None
         self._last_publish = -math.inf
         self._last_pose_warning = -math.inf
+        self.last_update = None  # [s] ROS time of the last update at the robot's pose
 
         # publishers before subscribers
         self.costmap_pub = rospy.Publisher(ns + "costmap", OccupancyGrid, queue_size=1, latch=True)
@@ -246,15 +127,15 @@ class Costmap2DROS:
         if self.static_map:
             self._subscribers.append(rospy.Subscriber(self.map_topic, OccupancyGrid, self._map_cb, queue_size=1))
         for src in self.sources:
-            cfg = self._source_cfg[src.name]
-            if cfg["data_type"] == "LaserScan":
+            source = self._inputs[src.name]
+            if source.data_type == "LaserScan":
                 from sensor_msgs.msg import LaserScan as msg_class
-            elif cfg["data_type"] == "PointCloud":
+            elif source.data_type == "PointCloud":
                 from sensor_msgs.msg import PointCloud as msg_class
             else:
                 from sensor_msgs.msg import PointCloud2 as msg_class
             self._subscribers.append(
-                rospy.Subscriber(cfg["topic"], msg_class, self._sensor_cb, callback_args=src.name, queue_size=1)
+                rospy.Subscriber(source.topic, msg_class, self._sensor_cb, callback_args=src.name, queue_size=1)
             )
         rospy.loginfo(
             "%s: %s costmap in %s, %d x %d cells at %.3f m, sources: %s",
@@ -263,7 +144,7 @@ class Costmap2DROS:
             self.global_frame,
             size_x,
             size_y,
-            resolution,
+            p.resolution,
             " ".join(s.name for s in self.sources) or "none",
         )
 
@@ -336,7 +217,7 @@ class Costmap2DROS:
                 f"(transform_tolerance {self.transform_tolerance:.3f} s)"
             )
             return None
-        return pose_to_xyyaw(tf)
+        return convert.to_xyyaw(tf)
 
     def _map_pose(self, frame):
         """(x [m], y [m], yaw [rad]) of the static map's ``frame`` in global_frame, the newest
@@ -350,7 +231,7 @@ class Costmap2DROS:
                 5.0, f"{self.name}: the static map stays put: no transform {frame} -> {self.global_frame}: {exc}"
             )
             return None
-        return pose_to_xyyaw(tf)
+        return convert.to_xyyaw(tf)
 
     def _warn_pose(self, text):
         now = self._rospy.get_time()
@@ -372,6 +253,7 @@ class Costmap2DROS:
             if map_pose is not None:
                 self.layered.set_static_pose(map_pose)
             self.layered.update(x, y, yaw)
+        self.last_update = self._rospy.get_time()
         self._publish_footprint(x, y, yaw)
         if self.publish_frequency > 0.0:
             now = self._rospy.get_time()
@@ -413,8 +295,7 @@ class Costmap2DROS:
     def _map_cb(self, msg):
         rospy = self._rospy
         frame = strip_slash(msg.header.frame_id)
-        q = msg.info.origin.orientation
-        if abs(2.0 * (q.w * q.z + q.x * q.y)) > 1e-6:
+        if _turns_the_map(msg.info.origin.orientation):
             rospy.logwarn("%s: the map's origin is rotated; the rotation is ignored", self.name)
         other_frame = bool(frame) and frame != self.global_frame
         needs_pose = other_frame and self.rolling_window  # placed through tf at each update
@@ -459,16 +340,16 @@ class Costmap2DROS:
         except tf2_ros.TransformException as exc:
             rospy.logwarn_throttle(1.0, f"{self.name}: dropped a reading: {exc}")
             return None
-        q, t = tf.transform.rotation, tf.transform.translation
-        return quaternion_matrix(q.x, q.y, q.z, q.w), np.array([t.x, t.y, t.z])
+        m = convert.to_matrix(tf)
+        return m[:3, :3], m[:3, 3]
 
     def _sensor_cb(self, msg, source_name):
         if not self._running:
             return
-        cfg = self._source_cfg[source_name]
+        source = self._inputs[source_name]
         src = self.layered.obstacles.buffers[source_name].source
         frame = strip_slash(msg.header.frame_id)
-        if cfg["data_type"] == "LaserScan":
+        if source.data_type == "LaserScan":
             points, free_ends = scan_to_points(
                 msg.ranges,
                 msg.angle_min,
@@ -476,9 +357,9 @@ class Costmap2DROS:
                 msg.range_min,
                 msg.range_max,
                 src.raytrace_range,
-                cfg["inf_is_valid"],
+                source.inf_is_valid,
             )
-        elif cfg["data_type"] == "PointCloud":
+        elif source.data_type == "PointCloud":
             points = np.array([(p.x, p.y, p.z) for p in msg.points], dtype=float).reshape(-1, 3)
             free_ends = None
         else:
@@ -493,7 +374,7 @@ class Costmap2DROS:
             return
         rot, trans = tf
         origin = trans
-        sensor_frame = cfg["sensor_frame"]
+        sensor_frame = source.sensor_frame
         if sensor_frame and sensor_frame != frame:
             tf_origin = self._transform(sensor_frame, msg.header.stamp)
             if tf_origin is None:
@@ -509,6 +390,15 @@ class Costmap2DROS:
             )
 
     # --- queries and recoveries ----------------------------------------------------------------
+    @property
+    def running(self):
+        """Whether updates run (between start() and stop())."""
+        return self._running
+
+    def update_age(self):
+        """Seconds [ROS time] since the last update at the robot's pose, or None before the first."""
+        return None if self.last_update is None else self._rospy.get_time() - self.last_update
+
     def is_current(self):
         """False when a source with an expected_update_rate has not reported in time."""
         with self.lock:

@@ -9,6 +9,24 @@ import math
 
 import numpy as np
 
+from florence_common import pose
+
+
+def footprint_value(value):
+    """The ``footprint`` parameter as a list of [x, y] points, or None when it is empty: ROS takes
+    the list or its string form "[[x, y], ...]". Raises ValueError for a string that is not YAML."""
+    if isinstance(value, str):
+        text = value.strip()
+        if text in ("", "[]"):
+            return None
+        import yaml
+
+        try:
+            return yaml.safe_load(text)
+        except yaml.YAMLError as exc:
+            raise ValueError(f"footprint {text!r} is not a list of [x, y] points: {exc}") from None
+    return value or None
+
 
 def parse_footprint(value, robot_radius=0.46):
     """Footprint from the ``footprint`` parameter (a list of [x, y] pairs or its string form
@@ -16,17 +34,7 @@ def parse_footprint(value, robot_radius=0.46):
 
     Raises ValueError naming the problem for a malformed footprint.
     """
-    if isinstance(value, str):
-        text = value.strip()
-        if text in ("", "[]"):
-            value = None
-        else:
-            import yaml
-
-            try:
-                value = yaml.safe_load(text)
-            except yaml.YAMLError as exc:
-                raise ValueError(f"footprint {text!r} is not a list of [x, y] points: {exc}") from None
+    value = footprint_value(value)
     if not value:
         if not robot_radius > 0.0:
             raise ValueError(f"robot_radius must be positive, got {robot_radius}")
@@ -77,7 +85,5 @@ def circumscribed_radius(points):
 
 
 def transform_footprint(points, x, y, yaw):
-    """The footprint's vertices in the world frame for a robot at (x, y) [m] heading ``yaw`` [rad]."""
-    points = np.asarray(points, dtype=float)
-    c, s = math.cos(yaw), math.sin(yaw)
-    return np.column_stack([x + c * points[:, 0] - s * points[:, 1], y + s * points[:, 0] + c * points[:, 1]])
+    """The footprint's vertices (N, 2) in the world frame for a robot at (x, y) [m] heading ``yaw`` [rad]."""
+    return pose.transform_points((x, y, yaw), points)

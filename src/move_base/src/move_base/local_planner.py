@@ -16,7 +16,8 @@ import math
 import numba
 import numpy as np
 
-from move_base.trajectory_planner import TrajectoryPlanner, poses_are_free
+from florence_common import angles
+from move_base.trajectory_planner import TrajectoryPlanner, poses_are_free, wrap_nb
 
 log = logging.getLogger(__name__)
 
@@ -35,12 +36,6 @@ _EARLY_DECELS = (1.0, 0.8, 0.65, 0.5)
 def _sign(x):
     """base_local_planner's sign: -1 for negative values, +1 otherwise (zero included)."""
     return -1.0 if x < 0.0 else 1.0
-
-
-def _angle_diff(a, b):
-    """Signed angle [rad] from ``a`` to ``b`` in [-pi, pi] (angles::shortest_angular_distance)."""
-    d = b - a
-    return math.atan2(math.sin(d), math.cos(d))
 
 
 def goal_turn_times(params, pose, v, w, goal, hold, decel, step=0.05, horizon=10.0):
@@ -81,7 +76,7 @@ def _goal_turn_nb(x0, y0, yaw0, v0, w0, gx, gy, gth, hold, decel, step, nsteps, 
         for k in range(nsteps + 1):
             dist = math.hypot(gx - x, gy - y)
             latched = latched or dist <= tol
-            err = math.atan2(math.sin(gth - yaw), math.cos(gth - yaw))
+            err = wrap_nb(gth - yaw)
             if latched and abs(err) <= yaw_tol:
                 times[i] = k * step
                 break
@@ -232,7 +227,7 @@ class LocalPlanner:
             self._turning_early = False
             if p.latch_xy_goal_tolerance:
                 self._xy_tolerance_latch = True
-            angle = _angle_diff(yaw, goal_th)
+            angle = angles.diff(goal_th, yaw)
             if abs(angle) <= p.yaw_goal_tolerance:
                 self._rotating_to_goal = False
                 self._xy_tolerance_latch = False
@@ -286,7 +281,7 @@ class LocalPlanner:
         """Whether the footprint stays clear of lethal cells over the whole turn on the spot from
         ``yaw`` to ``goal_th`` [rad] (the shorter way) and ``beyond`` [rad] past it, checked every
         0.05 rad."""
-        diff = _angle_diff(yaw, goal_th)
+        diff = angles.diff(goal_th, yaw)
         diff += math.copysign(beyond, diff)
         steps = max(1, math.ceil(abs(diff) / 0.05))
         yaws = yaw + diff * np.arange(steps + 1) / steps
@@ -323,7 +318,7 @@ class LocalPlanner:
         ahead = np.hypot(rest[:, 0] - x, rest[:, 1] - y) >= min(0.4, d)
         tx, ty = rest[int(np.argmax(ahead))] if ahead.any() else goal
         lookahead = math.hypot(tx - x, ty - y)
-        alpha = _angle_diff(yaw, math.atan2(ty - y, tx - x))
+        alpha = angles.diff(math.atan2(ty - y, tx - x), yaw)
         if abs(alpha) > 0.8 or lookahead < 1e-6:
             return None
         dt = p.sim_period
@@ -343,7 +338,7 @@ class LocalPlanner:
         min(max_vel_theta, sqrt(2 acc_lim_theta |error|)) to the goal yaw ``goal_th`` [rad]."""
         p = self.params
         dt = p.sim_period
-        err = _angle_diff(yaw, goal_th)
+        err = angles.diff(goal_th, yaw)
         want = math.copysign(min(p.max_vel_theta, math.sqrt(2.0 * p.acc_lim_theta * abs(err))), err)
         return min(max(want, vth - p.acc_lim_theta * dt), vth + p.acc_lim_theta * dt)
 
@@ -383,7 +378,7 @@ class LocalPlanner:
         speed = abs(self._ramp_from(vx, 0, p.acc_lim_x))
         vth = self._ramp_from(vth, 2, p.acc_lim_theta)
         decels = p.acc_lim_x * np.asarray(_EARLY_DECELS)
-        if (abs(vy) > 0.0 or abs(_angle_diff(yaw, goal[2])) <= p.yaw_goal_tolerance
+        if (abs(vy) > 0.0 or abs(angles.diff(goal[2], yaw)) <= p.yaw_goal_tolerance
                 or d > p.xy_goal_tolerance + speed * speed / (2.0 * decels.min())):
             self._turning_early = False
             return None
@@ -460,7 +455,7 @@ class LocalPlanner:
         max_vel_theta], reachable in one control period, and slow enough to stop at the goal yaw
         (sqrt(2 * acc_lim_theta * |error|)); min_in_place_vel_theta wins over the last two."""
         p = self.params
-        ang_diff = _angle_diff(yaw, goal_th)
+        ang_diff = angles.diff(goal_th, yaw)
         if ang_diff > 0.0:
             v = min(p.max_vel_theta, max(p.min_in_place_vel_theta, ang_diff))
         else:

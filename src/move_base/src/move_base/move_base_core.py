@@ -22,6 +22,8 @@ import logging
 import math
 from dataclasses import dataclass, field
 
+from florence_common.params import Param, ParamTable
+
 log = logging.getLogger(__name__)
 
 PLANNING = "PLANNING"
@@ -35,41 +37,36 @@ OSCILLATION_R = "OSCILLATION_R"
 ZERO = (0.0, 0.0, 0.0)
 
 
-@dataclass
-class MoveBaseParams:
-    """move_base's own parameters (ROS names, ROS defaults; times [s], distances [m], rates [Hz])."""
+PARAMS = ParamTable(
+    Param("planner_frequency", float, 0.0, "replanning rate while controlling (0: plan on a new goal and after "
+          "failures only)", unit="Hz", ge=0.0),
+    Param("planner_patience", float, 5.0, "time without a valid plan before the recoveries run", unit="s", ge=0.0),
+    Param("controller_frequency", float, 20.0, "control loop and velocity command rate", unit="Hz", gt=0.0),
+    Param("controller_patience", float, 15.0, "time without a valid command before the recoveries run", unit="s",
+          ge=0.0),
+    Param("max_planning_retries", int, -1, "failed plans before the recoveries run (-1: planner_patience only)",
+          ge=-1),
+    Param("oscillation_timeout", float, 0.0, "time allowed without moving oscillation_distance (0: no limit)",
+          unit="s", ge=0.0),
+    Param("oscillation_distance", float, 0.5, "how far the robot must move to reset the oscillation clock",
+          unit="m", ge=0.0),
+    Param("recovery_behavior_enabled", bool, True, "run the recovery behaviours on a failure"),
+    Param("clearing_rotation_allowed", bool, True, "the default recoveries include the rotations"),
+    Param("conservative_reset_dist", float, 3.0, "side of the square the default conservative reset keeps",
+          unit="m", ge=0.0),
+    Param("shutdown_costmaps", bool, False, "pause the costmaps while there is no goal"),
+    # Florence addition (-1 = ROS: no limit). A robot shuffling on the spot in a doorway restarted
+    # the recovery list for ever in ROS.
+    Param("max_recovery_restarts", int, -1, "Florence: how often the recovery list may start over from its first "
+          "entry after apparent progress (moved oscillation_distance, a plan or a command found again) before "
+          "the goal is aborted (-1: no limit, ROS)", ge=-1),
+)
+"""move_base's own parameters (``~``: ROS's names and defaults)."""
 
-    planner_frequency: float = 0.0
-    planner_patience: float = 5.0
-    controller_frequency: float = 20.0
-    controller_patience: float = 15.0
-    max_planning_retries: int = -1
-    oscillation_timeout: float = 0.0
-    oscillation_distance: float = 0.5
-    recovery_behavior_enabled: bool = True
-    clearing_rotation_allowed: bool = True
-    conservative_reset_dist: float = 3.0
-    shutdown_costmaps: bool = False
-    # Florence addition (-1 = ROS: no limit): how often the recovery list may start again from its
-    # first entry after the robot seemed to make progress (moved oscillation_distance, a plan or a
-    # command found again). A robot shuffling on the spot in a doorway did that for ever in ROS.
-    max_recovery_restarts: int = -1
 
-    def validate(self):
-        checks = {
-            "planner_frequency": self.planner_frequency >= 0.0,
-            "planner_patience": self.planner_patience >= 0.0,
-            "controller_frequency": self.controller_frequency > 0.0,
-            "controller_patience": self.controller_patience >= 0.0,
-            "oscillation_timeout": self.oscillation_timeout >= 0.0,
-            "oscillation_distance": self.oscillation_distance >= 0.0,
-            "conservative_reset_dist": self.conservative_reset_dist >= 0.0,
-        }
-        for name, ok in checks.items():
-            value = getattr(self, name)
-            if not ok or not math.isfinite(float(value)):
-                raise ValueError(f"~{name} = {value!r} is out of range")
-        return self
+def core_params(**values):
+    """:data:`PARAMS` from keyword values, the others at their defaults (ParamError naming a bad one)."""
+    return PARAMS.validate(values)
 
 
 @dataclass
@@ -103,10 +100,11 @@ class _GoalState:
 
 
 class MoveBaseCore:
-    """The goal-level state machine of move_base."""
+    """The goal-level state machine of move_base; ``params``: :data:`PARAMS`' values
+    (``core_params(...)`` or the node's ``read_params(PARAMS)``)."""
 
     def __init__(self, params, planner, controller, recoveries, sensors_current=None):
-        self.params = params.validate()
+        self.params = params
         self.planner = planner
         self.controller = controller
         self.recoveries = list(recoveries)

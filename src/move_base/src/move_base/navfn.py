@@ -57,6 +57,7 @@ import math
 import numba
 import numpy as np
 
+from florence_common.params import Param, ParamTable
 from move_base.costmap_2d import INSCRIBED_INFLATED_OBSTACLE, NO_INFORMATION
 
 log = logging.getLogger(__name__)
@@ -378,30 +379,34 @@ def _fail(reason, potential=None):
     return PlanResult(False, np.empty((0, 3)), reason, potential)
 
 
+PARAMS = ParamTable(
+    Param("allow_unknown", bool, True, "unknown cells (255) are passable at traversal cost 253"),
+    Param("default_tolerance", float, 0.0, "goal tolerance used when a plan request gives none", unit="m", ge=0.0),
+    Param("planner_window_x", float, 0.0, "width of the searched window round the robot (0: the whole costmap; "
+          "used with planner_window_y)", unit="m", ge=0.0),
+    Param("planner_window_y", float, 0.0, "height of the searched window round the robot (0: the whole costmap)",
+          unit="m", ge=0.0),
+    Param("visualize_potential", bool, False, "recorded only: every PlanResult carries the potential anyway"),
+)
+"""NavfnROS's parameters (``~NavfnROS/``: names and defaults of ROS's navfn)."""
+
+
 class NavfnPlanner:
     """NavfnROS's makePlan on a :class:`~move_base.costmap_2d.Costmap2D`.
 
-    Parameters (NavfnROS's ``~NavfnROS/*`` names and defaults):
-        allow_unknown (bool, True): unknown cells (255) are passable at traversal cost 253.
-        default_tolerance (float, 0.0, m): goal tolerance used when make_plan gets none.
-        planner_window_x, planner_window_y (float, 0.0, m): when both > 0, only the window of
-            that size centred on the robot's cell (clipped to the costmap) is searched, its edge
-            cells being walls like the costmap's; a goal outside it fails. 0 = whole costmap.
-        visualize_potential (bool, False): recorded for the node (publish the potential); the
-            potential is returned in every PlanResult anyway.
+    Keyword arguments: :data:`PARAMS` (NavfnROS's ``~NavfnROS/*`` names and defaults); a value out of
+    range raises ParamError (a ValueError) naming it. With planner_window_x and planner_window_y
+    both > 0, only the window of that size centred on the robot's cell (clipped to the costmap) is
+    searched, its edge cells being walls like the costmap's; a goal outside it fails.
     """
 
-    def __init__(self, allow_unknown=True, default_tolerance=0.0, planner_window_x=0.0, planner_window_y=0.0,
-                 visualize_potential=False):
-        if default_tolerance < 0.0:
-            raise ValueError(f"default_tolerance must be >= 0 m, got {default_tolerance}")
-        if planner_window_x < 0.0 or planner_window_y < 0.0:
-            raise ValueError(f"planner window must be >= 0 m, got {planner_window_x} x {planner_window_y}")
-        self.allow_unknown = bool(allow_unknown)
-        self.default_tolerance = float(default_tolerance)
-        self.planner_window_x = float(planner_window_x)
-        self.planner_window_y = float(planner_window_y)
-        self.visualize_potential = bool(visualize_potential)
+    def __init__(self, **params):
+        p = PARAMS.validate(params)
+        self.allow_unknown = p.allow_unknown
+        self.default_tolerance = p.default_tolerance
+        self.planner_window_x = p.planner_window_x
+        self.planner_window_y = p.planner_window_y
+        self.visualize_potential = p.visualize_potential
 
     def _window(self, costmap, robot_cell):
         """Cell bounds (x0, y0, x1, y1), end exclusive, of the area searched."""

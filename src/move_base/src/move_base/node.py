@@ -1,30 +1,9 @@
 """move_base node: the ROS 1 move_base interface around the ROS-free planners and state machine.
 
-ROS Parameters (ROS names and defaults; the seed's YAML files set several):
-    ~base_global_planner (str, "navfn/NavfnROS"): the only global planner here.
-    ~base_local_planner (str, "base_local_planner/TrajectoryPlannerROS"): the only local planner
-        here (trajectory rollout, or DWA with ~TrajectoryPlannerROS/dwa true).
-    ~planner_frequency (double, 0.0, Hz): replanning rate while controlling (0: plan on new goals and
-        after failures only).
-    ~planner_patience (double, 5.0, s): planning time before recovery behaviours run.
-    ~controller_frequency (double, 20.0, Hz): control loop and velocity command rate (seed: 5.0).
-    ~controller_patience (double, 15.0, s): time without a valid command before recoveries run.
-    ~max_planning_retries (int, -1): failed plans before recoveries run (-1: planner_patience only).
-    ~oscillation_timeout (double, 0.0, s): time allowed without moving oscillation_distance (0: off).
-    ~oscillation_distance (double, 0.5, m): how far the robot must move to reset that clock.
-    ~recovery_behavior_enabled (bool, true), ~clearing_rotation_allowed (bool, true).
-    ~conservative_reset_dist (double, 3.0, m): side of the square kept by the conservative reset.
-    ~shutdown_costmaps (bool, false): pause the costmaps while there is no goal.
-    ~max_recovery_restarts (int, -1): Florence addition: how often the recovery list may start over
-        after apparent progress before the goal is aborted (-1: no limit, as ROS).
-    ~recovery_behaviors (list of {name, type}, ROS's default list): types
-        clear_costmap_recovery/ClearCostmapRecovery (~<name>/reset_distance, default 3.0 m) and
-        rotate_recovery/RotateRecovery.
-    ~global_costmap/*, ~local_costmap/*: see move_base.costmap_ros.
-    ~NavfnROS/allow_unknown (bool, true), ~NavfnROS/default_tolerance (double, 0.0, m),
-        ~NavfnROS/planner_window_x, ~NavfnROS/planner_window_y (double, 0.0, m),
-        ~NavfnROS/visualize_potential (bool, false).
-    ~TrajectoryPlannerROS/*: see move_base.trajectory_planner.PlannerParams.
+ROS Parameters: PARAMS below and move_base.move_base_core.PARAMS (``~``), navfn.PARAMS
+(``~NavfnROS/``), trajectory_planner.PARAMS (``~TrajectoryPlannerROS/``), costmap_config.PARAMS
+and SOURCE_PARAMS (``~global_costmap/``, ``~local_costmap/``), recovery.CLEAR_COSTMAP_PARAMS
+(``~<recovery name>/``); all rendered in the README. A bad value is a fatal error naming it.
 
 Actions:
     move_base (move_base_msgs/MoveBaseAction): goal = target pose; feedback = the robot's pose in the
@@ -39,12 +18,16 @@ Publishers:
     ~current_goal (geometry_msgs/PoseStamped), ~NavfnROS/plan (nav_msgs/Path),
     ~TrajectoryPlannerROS/global_plan and ~TrajectoryPlannerROS/local_plan (nav_msgs/Path),
     ~global_costmap/costmap, ~local_costmap/costmap (nav_msgs/OccupancyGrid) and their footprints.
+    /diagnostics (diagnostic_msgs/DiagnosticArray, through diagnostic_updater): the current goal
+        and its recoveries, the control rate achieved against controller_frequency, the costmaps'
+        update ages.
 
 Services:
     ~make_plan (nav_msgs/GetPlan), ~clear_costmaps (std_srvs/Empty),
     ~clear_unknown_space (std_srvs/Empty).
 """
 
+import collections
 import math
 import threading
 
@@ -58,18 +41,63 @@ from nav_msgs.msg import Odometry, Path
 from nav_msgs.srv import GetPlan, GetPlanResponse
 from std_srvs.srv import Empty, EmptyResponse
 
+from florence_common import pose as pose2d
+from florence_common.params import Param, ParamError, ParamTable
+from florence_common_ros import convert
+from florence_common_ros.diagnostics import OK, WARN, Diagnostics
+from florence_common_ros.node import publish_stop, read_params, run
+from move_base import move_base_core, navfn
 from move_base.costmap_2d import LETHAL_OBSTACLE
-from move_base.costmap_ros import Costmap2DROS, pose_to_xyyaw, yaw_of
+from move_base.costmap_ros import Costmap2DROS
 from move_base.layers import footprint_cost
 from move_base.local_planner import LocalPlanner
-from move_base.move_base_core import MoveBaseCore, MoveBaseParams
+from move_base.move_base_core import CLEARING, MoveBaseCore
 from move_base.navfn import NavfnPlanner
-from move_base.recovery import ClearCostmapRecovery, RotateRecovery, default_recovery_specs, footprint_collision_check
+from move_base.recovery import (
+    CLEAR_COSTMAP_PARAMS,
+    ClearCostmapRecovery,
+    RotateRecovery,
+    default_recovery_specs,
+    footprint_collision_check,
+)
 from move_base.trajectory_planner import PlannerParams
 
 LOG = "move_base: "
 GLOBAL_PLANNERS = ("navfn/NavfnROS", "NavfnROS")
 LOCAL_PLANNERS = ("base_local_planner/TrajectoryPlannerROS", "TrajectoryPlannerROS")
+RECOVERY_TYPES = ("ClearCostmapRecovery", "RotateRecovery")  # with or without their package prefix
+
+
+def _recovery_specs_problem(specs):
+    for spec in specs:
+        if not isinstance(spec, dict) or "name" not in spec or "type" not in spec:
+            return f"must be a list of {{name, type}}: entry {spec!r} needs a name and a type"
+        if not str(spec["type"]).endswith(RECOVERY_TYPES):
+            return (f"entry {spec['name']!r}: type {spec['type']!r} is not available "
+                    "(clear_costmap_recovery/ClearCostmapRecovery, rotate_recovery/RotateRecovery)")
+    return None
+
+
+PARAMS = ParamTable(
+    Param("base_global_planner", str, "navfn/NavfnROS", "the global planner (navfn is the only one)",
+          choices=GLOBAL_PLANNERS),
+    Param("base_local_planner", str, "base_local_planner/TrajectoryPlannerROS", "the local planner: trajectory "
+          "rollout, or DWA with ~TrajectoryPlannerROS/dwa true (the only one)", choices=LOCAL_PLANNERS),
+    Param("recovery_behaviors", list, None, "the recoveries in order, [{name, type}, ...]: "
+          "clear_costmap_recovery/ClearCostmapRecovery (CLEAR_COSTMAP_PARAMS in the namespace ~name/) or "
+          "rotate_recovery/RotateRecovery "
+          "(unset: ROS's conservative_reset, rotate_recovery, aggressive_reset, rotate_recovery)", optional=True,
+          check=_recovery_specs_problem),
+)
+"""The move_base node's own parameters (``~``); the state machine's are move_base_core.PARAMS."""
+
+
+def in_namespace(namespace, read):
+    """``read()``, its ParamError prefixed with ``namespace`` (the names in a table are relative to it)."""
+    try:
+        return read()
+    except ParamError as exc:
+        raise ParamError(f"in ~{namespace}/: {exc}") from None
 
 
 def quaternion_problem(q):
@@ -104,26 +132,20 @@ def goal_is_hopeless(layered, x, y):
     return static.grid.cost_at(x, y) == LETHAL_OBSTACLE
 
 
-def apply_transform(xyyaw, poses):
-    """Poses (N, 3) through the planar transform (x, y, yaw)."""
-    x, y, yaw = xyyaw
-    c, s = math.cos(yaw), math.sin(yaw)
-    out = np.empty_like(poses)
-    out[:, 0] = x + c * poses[:, 0] - s * poses[:, 1]
-    out[:, 1] = y + s * poses[:, 0] + c * poses[:, 1]
-    out[:, 2] = poses[:, 2] + yaw
-    return out
-
-
 def path_msg(poses, frame, stamp):
+    """nav_msgs/Path of poses (N, 3) (x [m], y [m], yaw [rad]) in ``frame``."""
     msg = Path()
     msg.header.frame_id = frame
     msg.header.stamp = stamp
-    for x, y, yaw in poses:
+    poses = np.asarray(poses, dtype=float).reshape(-1, 3)
+    if len(poses) == 0:
+        return msg
+    quaternions = pose2d.yaw_to_quaternion(poses[:, 2]).reshape(-1, 4)  # one scipy call for the whole path
+    for (x, y, _), (qx, qy, qz, qw) in zip(poses.tolist(), quaternions.tolist(), strict=True):
         p = PoseStamped()
         p.header = msg.header
-        p.pose.position.x, p.pose.position.y = float(x), float(y)
-        p.pose.orientation.z, p.pose.orientation.w = math.sin(yaw / 2.0), math.cos(yaw / 2.0)
+        p.pose.position.x, p.pose.position.y = x, y
+        p.pose.orientation.x, p.pose.orientation.y, p.pose.orientation.z, p.pose.orientation.w = qx, qy, qz, qw
         msg.poses.append(p)
     return msg
 
@@ -149,7 +171,7 @@ class ControllerAdapter:
             return False, (0.0, 0.0, 0.0), (f"transform timeout: {node.planner_costmap.global_frame} -> "
                                             f"{local.global_frame}")
         # the local planner's stored copy: it prunes it as the robot advances (TrajectoryPlannerROS)
-        plan_local = apply_transform(to_local, node.local_planner.global_plan)
+        plan_local = np.asarray(pose2d.compose(to_local, node.local_planner.global_plan)).reshape(-1, 3)
         with local.lock:
             ok, cmd, reason = node.local_planner.compute_velocity(local.costmap, here, node.robot_velocity(),
                                                                   plan_local)
@@ -168,38 +190,13 @@ class MoveBaseNode:
     """The move_base node: reads its parameters, builds costmaps, planners and recoveries, then serves."""
 
     def __init__(self):
-        gp = rospy.get_param("~base_global_planner", "navfn/NavfnROS")
-        lp = rospy.get_param("~base_local_planner", "base_local_planner/TrajectoryPlannerROS")
-        if gp not in GLOBAL_PLANNERS:
-            raise ValueError(f"~base_global_planner {gp!r} is not available (only navfn/NavfnROS)")
-        if lp not in LOCAL_PLANNERS:
-            raise ValueError(f"~base_local_planner {lp!r} is not available (only "
-                             "base_local_planner/TrajectoryPlannerROS, with dwa true for DWA)")
-        self.params = MoveBaseParams(
-            planner_frequency=float(rospy.get_param("~planner_frequency", 0.0)),
-            planner_patience=float(rospy.get_param("~planner_patience", 5.0)),
-            controller_frequency=float(rospy.get_param("~controller_frequency", 20.0)),
-            controller_patience=float(rospy.get_param("~controller_patience", 15.0)),
-            max_planning_retries=int(rospy.get_param("~max_planning_retries", -1)),
-            oscillation_timeout=float(rospy.get_param("~oscillation_timeout", 0.0)),
-            oscillation_distance=float(rospy.get_param("~oscillation_distance", 0.5)),
-            recovery_behavior_enabled=bool(rospy.get_param("~recovery_behavior_enabled", True)),
-            clearing_rotation_allowed=bool(rospy.get_param("~clearing_rotation_allowed", True)),
-            conservative_reset_dist=float(rospy.get_param("~conservative_reset_dist", 3.0)),
-            shutdown_costmaps=bool(rospy.get_param("~shutdown_costmaps", False)),
-            max_recovery_restarts=int(rospy.get_param("~max_recovery_restarts", -1)),
-        ).validate()
-        navfn = rospy.get_param("~NavfnROS", {}) or {}
-        self.global_planner = NavfnPlanner(
-            allow_unknown=bool(navfn.get("allow_unknown", True)),
-            default_tolerance=float(navfn.get("default_tolerance", 0.0)),
-            planner_window_x=float(navfn.get("planner_window_x", 0.0)),
-            planner_window_y=float(navfn.get("planner_window_y", 0.0)),
-            visualize_potential=bool(navfn.get("visualize_potential", False)),
-        )
-        tp = dict(rospy.get_param("~TrajectoryPlannerROS", {}) or {})
+        self.node_params = read_params(PARAMS)
+        self.params = read_params(move_base_core.PARAMS)
+        self.global_planner = NavfnPlanner(**in_namespace("NavfnROS", lambda: read_params(navfn.PARAMS,
+                                                                                          "~NavfnROS/")))
+        tp = dict(rospy.get_param("~TrajectoryPlannerROS", {}) or {})  # a dict: ROS's old names are accepted too
         tp.setdefault("controller_frequency", self.params.controller_frequency)
-        self.planner_params = PlannerParams.from_dict(tp)
+        self.planner_params = in_namespace("TrajectoryPlannerROS", lambda: PlannerParams.from_dict(tp))
 
         # publishers before anything that calls back
         self.cmd_pub = rospy.Publisher("cmd_vel", Twist, queue_size=1)
@@ -220,6 +217,11 @@ class MoveBaseNode:
         self.core = MoveBaseCore(self.params, self._plan_for_core, ControllerAdapter(self),
                                  self.recoveries, self._sensors_current)
         self.core_lock = threading.Lock()
+        self.recoveries_run = 0  # since start
+        self.goal_recoveries = 0  # in the current (or last) goal
+        self.last_outcome = ("", "")  # (outcome, text) of the last goal
+        # ROS times [s] of the latest control cycles: the rate achieved
+        self.cycle_times = collections.deque(maxlen=max(5, math.ceil(2.0 * self.params.controller_frequency) + 1))
 
         self._velocity = (0.0, 0.0, 0.0)
         self._velocity_lock = threading.Lock()
@@ -230,6 +232,11 @@ class MoveBaseNode:
         if self.params.shutdown_costmaps:
             self.planner_costmap.stop()
             self.controller_costmap.stop()
+
+        self.diagnostics = Diagnostics("move_base")
+        self.diagnostics.add("Goal", self._diagnose_goal)
+        self.diagnostics.add("Controller rate", self._diagnose_rate)
+        self.diagnostics.add("Costmaps", self._diagnose_costmaps)
 
         rospy.Service("~make_plan", GetPlan, self._make_plan_srv)
         rospy.Service("~clear_costmaps", Empty, self._clear_costmaps_srv)
@@ -245,20 +252,19 @@ class MoveBaseNode:
 
     # --- set-up helpers -----------------------------------------------------------------------
     def _load_recoveries(self):
-        specs = rospy.get_param("~recovery_behaviors", None)
+        specs = self.node_params.recovery_behaviors
         if specs is None:
             specs = default_recovery_specs(self.params.conservative_reset_dist,
                                            self.controller_costmap.circumscribed_radius,
                                            self.params.clearing_rotation_allowed)
         else:
-            if not isinstance(specs, list):
-                raise ValueError("~recovery_behaviors must be a list of {name, type}")
             parsed = []
             for spec in specs:
-                if not isinstance(spec, dict) or "name" not in spec or "type" not in spec:
-                    raise ValueError(f"~recovery_behaviors entry {spec!r} needs a name and a type")
-                reset = rospy.get_param(f"~{spec['name']}/reset_distance", 3.0)
-                parsed.append((spec["name"], spec["type"], float(reset)))
+                name, kind, reset = spec["name"], spec["type"], None
+                if kind.endswith("ClearCostmapRecovery"):
+                    reset = in_namespace(name, lambda name=name: read_params(CLEAR_COSTMAP_PARAMS, f"~{name}/"))
+                    reset = reset.reset_distance
+                parsed.append((name, kind, reset))
             specs = parsed
         costmaps = [self.planner_costmap, self.controller_costmap]
         check = footprint_collision_check(self._local_footprint_cost, self.controller_costmap.footprint)
@@ -266,14 +272,11 @@ class MoveBaseNode:
         for name, kind, reset in specs:
             if kind.endswith("ClearCostmapRecovery"):
                 out.append(ClearCostmapRecovery(name, costmaps, reset))
-            elif kind.endswith("RotateRecovery"):
+            else:  # RotateRecovery (PARAMS' check)
                 p = self.planner_params
                 out.append(RotateRecovery(name, check, self.controller_costmap.get_robot_pose,
                                           acc_lim_th=p.acc_lim_theta, max_rotational_vel=p.max_vel_theta,
                                           min_in_place_rotational_vel=p.min_in_place_vel_theta))
-            else:
-                raise ValueError(f"~recovery_behaviors: type {kind!r} of {name!r} is not available "
-                                 "(ClearCostmapRecovery, RotateRecovery)")
         return out
 
     def _local_footprint_cost(self, points):
@@ -304,7 +307,68 @@ class MoveBaseNode:
         except (tf2_ros.LookupException, tf2_ros.ConnectivityException, tf2_ros.ExtrapolationException,
                 tf2_ros.TransformException):
             return None
-        return pose_to_xyyaw(t)
+        return convert.to_xyyaw(t)
+
+    # --- diagnostics ----------------------------------------------------------------------------
+    def _diagnose_goal(self, stat):
+        with self.core_lock:
+            state = self.core.state
+            goal = self.core.g.goal if self.core.g is not None else None
+            recovery = self.core.g.recovery if self.core.g is not None else None
+            outcome, text = self.last_outcome
+            goal_recoveries, total = self.goal_recoveries, self.recoveries_run
+        if state is None:
+            level, summary = OK, "no goal"
+            if outcome == "aborted":
+                level, summary = WARN, f"last goal aborted: {text}"
+            elif outcome:
+                summary = f"no goal (last {outcome})"
+        else:
+            level = WARN if state == CLEARING else OK
+            summary = f"{state} toward ({goal[0]:.2f}, {goal[1]:.2f}, {goal[2]:.2f} rad)"
+            if state == CLEARING and recovery is not None:
+                summary += f": recovery {recovery.name}"
+        stat.summary(level, summary)
+        stat.add("State", state or "idle")
+        stat.add("Last outcome", f"{outcome}: {text}" if outcome else "")
+        stat.add("Recoveries in this goal", goal_recoveries)
+        stat.add("Recoveries since start", total)
+        return stat
+
+    def _diagnose_rate(self, stat):
+        wanted = self.params.controller_frequency
+        with self.core_lock:
+            active, times = self.core.active, list(self.cycle_times)
+        achieved = (len(times) - 1) / (times[-1] - times[0]) if len(times) > 2 and times[-1] > times[0] else None
+        if not active:
+            stat.summary(OK, "no goal: the control loop is idle")
+        elif achieved is None:
+            stat.summary(OK, "control loop starting")
+        elif achieved < 0.9 * wanted:
+            stat.summary(WARN, f"control loop at {achieved:.1f} Hz, below controller_frequency {wanted:.1f} Hz")
+        else:
+            stat.summary(OK, f"control loop at {achieved:.1f} Hz")
+        stat.add("controller_frequency [Hz]", f"{wanted:.2f}")
+        stat.add("Achieved [Hz]", "" if achieved is None else f"{achieved:.2f}")
+        return stat
+
+    def _diagnose_costmaps(self, stat):
+        problems = []
+        for costmap in (self.planner_costmap, self.controller_costmap):
+            age = costmap.update_age()
+            stat.add(f"{costmap.name} update age [s]", "never" if age is None else f"{age:.2f}")
+            if not costmap.running or costmap.update_frequency <= 0.0:
+                continue  # paused (shutdown_costmaps) or updated on request only
+            if age is None:
+                problems.append(f"{costmap.name}: no update yet (no robot pose?)")
+            elif age > 2.0 / costmap.update_frequency + 0.5:
+                problems.append(f"{costmap.name}: last update {age:.1f} s ago "
+                                f"(update_frequency {costmap.update_frequency:.1f} Hz)")
+        if problems:
+            stat.summary(WARN, "; ".join(problems))
+        else:
+            stat.summary(OK, "costmaps up to date")
+        return stat
 
     # --- planning -----------------------------------------------------------------------------
     def _plan(self, start, goal, tolerance=None):
@@ -373,15 +437,14 @@ class MoveBaseNode:
         if not frame:
             return "the goal has no frame_id"
         target = self.planner_costmap.global_frame
+        goal = (p.x, p.y, convert.yaw_of(q))
         if frame == target:
-            return p.x, p.y, yaw_of(q)
+            return goal
         try:
             t = self.tf_buffer.lookup_transform(target, frame, rospy.Time(0), rospy.Duration(1.0))
         except tf2_ros.TransformException as exc:
             return f"the goal's frame {frame!r} cannot be transformed to {target!r}: {exc}"
-        x, y, yaw = pose_to_xyyaw(t)
-        c, s = math.cos(yaw), math.sin(yaw)
-        return x + c * p.x - s * p.y, y + s * p.x + c * p.y, yaw + yaw_of(q)
+        return pose2d.compose(convert.to_xyyaw(t), goal)
 
     def _simple_goal_cb(self, msg):
         rospy.loginfo(LOG + "goal on move_base_simple/goal, passed to the action server")
@@ -392,6 +455,10 @@ class MoveBaseNode:
 
     def publish_zero(self):
         self.cmd_pub.publish(Twist())
+
+    def shutdown(self):
+        """Last words: a zero velocity, so the base does not drive on with the last command."""
+        publish_stop(self.cmd_pub)
 
     def _preempt_cb(self):
         # stop at once on cancel; the control loop ends the goal on its next turn
@@ -407,11 +474,10 @@ class MoveBaseNode:
         here = self.planner_costmap.get_robot_pose()
         with self.core_lock:
             self.core.set_goal(goal, rospy.get_time(), here)
-        msg = PoseStamped()
-        msg.header.frame_id = self.planner_costmap.global_frame
-        msg.header.stamp = rospy.Time.now()
-        msg.pose.position.x, msg.pose.position.y = goal[0], goal[1]
-        msg.pose.orientation.z, msg.pose.orientation.w = math.sin(goal[2] / 2.0), math.cos(goal[2] / 2.0)
+            self.goal_recoveries = 0
+            self.last_outcome = ("", "")
+            self.cycle_times.clear()
+        msg = convert.pose_stamped(*goal, self.planner_costmap.global_frame, rospy.Time.now())
         self.goal_pub.publish(msg)
         rospy.loginfo(LOG + "new goal (%.2f, %.2f, %.2f rad) in %s", goal[0], goal[1], goal[2], msg.header.frame_id)
         return None
@@ -419,6 +485,7 @@ class MoveBaseNode:
     def _end(self, outcome, text):
         with self.core_lock:
             self.core.reset()
+            self.last_outcome = (outcome, text)
         self.publish_zero()
         if self.params.shutdown_costmaps:
             self.planner_costmap.stop()
@@ -455,15 +522,16 @@ class MoveBaseNode:
             here = self.planner_costmap.get_robot_pose()
             if here is not None:
                 feedback = MoveBaseFeedback()
-                feedback.base_position.header.frame_id = self.planner_costmap.global_frame
-                feedback.base_position.header.stamp = rospy.Time.now()
-                feedback.base_position.pose.position.x, feedback.base_position.pose.position.y = here[0], here[1]
-                feedback.base_position.pose.orientation.z = math.sin(here[2] / 2.0)
-                feedback.base_position.pose.orientation.w = math.cos(here[2] / 2.0)
+                feedback.base_position = convert.pose_stamped(*here, self.planner_costmap.global_frame,
+                                                              rospy.Time.now())
                 self.server.publish_feedback(feedback)
             with self.core_lock:
                 state_before = self.core.state
                 result = self.core.cycle(now, here)
+                self.cycle_times.append(now)
+                if result.started_recovery:
+                    self.recoveries_run += 1
+                    self.goal_recoveries += 1
             if result.started_recovery:
                 rospy.logwarn(LOG + "running recovery behaviour %s (%s)", result.started_recovery, result.text)
             elif state_before != self.core.state and self.core.state is not None:
@@ -501,10 +569,4 @@ class MoveBaseNode:
 
 
 def main():
-    rospy.init_node("move_base")
-    try:
-        MoveBaseNode()
-    except ValueError as exc:
-        rospy.logfatal(LOG + "%s", exc)
-        raise SystemExit(1) from None
-    rospy.spin()
+    run(MoveBaseNode, "move_base")

@@ -15,14 +15,17 @@ import math
 
 import numpy as np
 
+from florence_common import angles
+from florence_common.params import Param, ParamTable
 from move_base.footprint import transform_footprint
 
 log = logging.getLogger(__name__)
 
-
-def angle_diff(a, b):
-    """a - b wrapped to [-pi, pi) [rad]."""
-    return (a - b + math.pi) % (2.0 * math.pi) - math.pi
+CLEAR_COSTMAP_PARAMS = ParamTable(
+    Param("reset_distance", float, 3.0, "side of the square round the robot whose obstacles are kept", unit="m",
+          ge=0.0),
+)
+"""A ClearCostmapRecovery's parameters (``~<name>/``, as ROS's clear_costmap_recovery)."""
 
 
 class ClearCostmapRecovery:
@@ -87,7 +90,7 @@ class RotateRecovery:
             return True, (0.0, 0.0, 0.0)
         x, y, yaw = local
         if self._last_yaw is not None:
-            self._turned += abs(angle_diff(yaw, self._last_yaw))
+            self._turned += abs(angles.diff(yaw, self._last_yaw))
         self._last_yaw = yaw
         remaining = 2.0 * math.pi - self._turned
         if remaining <= self.tolerance or now - self._started > self.timeout:

@@ -28,6 +28,8 @@ import math
 import numba
 import numpy as np
 
+from florence_common import angles
+from florence_common.params import Param, ParamError, Params, ParamTable
 from move_base.costmap_2d import NO_INFORMATION
 
 log = logging.getLogger(__name__)
@@ -46,97 +48,97 @@ _ALIASES = {
 }
 
 
-@dataclasses.dataclass
-class PlannerParams:
-    """TrajectoryPlannerROS parameters (ROS names, ROS defaults).
+def _numbers_problem(value):
+    if not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value):
+        return "must be a list of finite numbers"
+    return None
 
-    ROS Parameters (``~TrajectoryPlannerROS/...``):
-        acc_lim_x, acc_lim_y (float, 2.5, m/s^2): acceleration limits.
-        acc_lim_theta (float, 3.2, rad/s^2): rotational acceleration limit (old name acc_lim_th).
-        max_vel_x, min_vel_x (float, 0.5 / 0.1, m/s): forward velocity range of the samples.
-        max_vel_theta, min_vel_theta (float, 1.0 / -1.0, rad/s): rotational velocity range
-            (old name max_rotational_vel sets both, min = -max).
-        min_in_place_vel_theta (float, 0.4, rad/s): smallest in-place rotation commanded
-            (old name min_in_place_rotational_vel).
-        escape_vel (float, -0.1, m/s): velocity when backing up (old name backup_vel).
-        holonomic_robot (bool, true): sample y velocities too.
-        y_vels (list, [-0.3, -0.1, 0.1, 0.3], m/s): pure strafe samples of a holonomic robot.
-        sim_time (float, 1.0, s): simulated time of each trajectory.
-        sim_granularity (float, 0.025, m): step along a trajectory.
-        angular_sim_granularity (float, = sim_granularity, rad): angular step.
-        vx_samples, vtheta_samples (int, 3 / 20): sample counts.
-        path_distance_bias (0.6), goal_distance_bias (0.8), occdist_scale (0.01): cost weights
-            (old names pdist_scale, gdist_scale).
-        heading_lookahead (float, 0.325, m): look-ahead for scoring in-place rotations.
-        heading_scoring (bool, false), heading_scoring_timestep (float, 0.8, s).
-        dwa (bool, true): sample the window reachable in one control period, not in sim_time.
-        simple_attractor (bool, false): score by squared distance to the goal only.
-        meter_scoring (bool, false): distances in metres (biases times the resolution).
-        oscillation_reset_dist (float, 0.05, m), escape_reset_dist (float, 0.10, m),
-        escape_reset_theta (float, pi/2, rad).
-        xy_goal_tolerance (0.10 m), yaw_goal_tolerance (0.05 rad), latch_xy_goal_tolerance (false).
-        prune_plan (bool, true).
-        trans_stopped_velocity (0.1 m/s), rot_stopped_velocity (0.1 rad/s): "stopped" thresholds
-            before rotating to the goal yaw.
-        controller_frequency (float, 20.0, Hz): move_base's; the DWA window is 1/frequency.
 
-    Florence additions (off by default, which is ROS's behaviour; used by
-    :class:`move_base.local_planner.LocalPlanner`):
-        final_approach_dist (float, 0.0, m): within this distance of the final goal, with the goal
-            ahead along a straight stretch of plan, drive at the speed that can still brake to a stop
-            at the goal (sqrt(2 acc_lim_x d)) and steer onto the plan, instead of the rollouts, whose
-            goal distance at the end of sim_time slows the robot to about d / sim_time.
-        rotate_while_braking (bool, false): once within xy_goal_tolerance, start turning to the goal
-            yaw while braking (ROS stops first, then turns on the spot).
-        turn_before_tolerance (bool, false): with rotate_while_braking, start braking and turning to
-            the goal yaw before the robot is within xy_goal_tolerance, when a simulation of the
-            manoeuvre ends well inside the tolerance and reaches the goal sooner than driving on.
-    """
+PARAMS = ParamTable(
+    Param("acc_lim_x", float, 2.5, "forward acceleration limit", unit="m/s^2", gt=0.0),
+    Param("acc_lim_y", float, 2.5, "sideways acceleration limit", unit="m/s^2", gt=0.0),
+    Param("acc_lim_theta", float, 3.2, "rotational acceleration limit (old name acc_lim_th)", unit="rad/s^2",
+          gt=0.0),
+    Param("max_vel_x", float, 0.5, "fastest forward sample", unit="m/s", ge=0.0),
+    Param("min_vel_x", float, 0.1, "slowest forward sample (at most max_vel_x)", unit="m/s"),
+    Param("max_vel_theta", float, 1.0, "fastest rotation to the left (old name max_rotational_vel sets this and "
+          "min_vel_theta = -max_rotational_vel)", unit="rad/s", ge=0.0),
+    Param("min_vel_theta", float, -1.0, "fastest rotation to the right (negative)", unit="rad/s", le=0.0),
+    Param("min_in_place_vel_theta", float, 0.4, "slowest in-place rotation commanded (at most max_vel_theta; old "
+          "name min_in_place_rotational_vel)", unit="rad/s", ge=0.0),
+    Param("escape_vel", float, -0.1, "velocity when backing up, negative (old name backup_vel)", unit="m/s"),
+    Param("holonomic_robot", bool, True, "sample sideways velocities too"),
+    Param("y_vels", list, [-0.3, -0.1, 0.1, 0.3], "pure strafe samples of a holonomic robot", unit="m/s",
+          check=_numbers_problem),
+    Param("sim_time", float, 1.0, "simulated time of each trajectory", unit="s", gt=0.0),
+    Param("sim_granularity", float, 0.025, "step along a trajectory", unit="m", gt=0.0),
+    Param("angular_sim_granularity", float, None, "angular step along a trajectory (unset: sim_granularity)",
+          unit="rad", gt=0.0, optional=True),
+    Param("vx_samples", int, 3, "forward velocity samples", ge=1),
+    Param("vtheta_samples", int, 20, "rotational velocity samples", ge=1),
+    Param("path_distance_bias", float, 0.6, "weight of the distance to the plan (old name pdist_scale)", ge=0.0),
+    Param("goal_distance_bias", float, 0.8, "weight of the distance to the local goal (old name gdist_scale)",
+          ge=0.0),
+    Param("occdist_scale", float, 0.01, "weight of the highest cost along a trajectory", ge=0.0),
+    Param("heading_lookahead", float, 0.325, "look-ahead for scoring in-place rotations", unit="m", ge=0.0),
+    Param("heading_scoring", bool, False, "score the heading to the plan instead of the distance"),
+    Param("heading_scoring_timestep", float, 0.8, "how far along the trajectory the heading is scored",
+          unit="s", ge=0.0),
+    Param("dwa", bool, True, "sample the window reachable in one control period, not in sim_time"),
+    Param("simple_attractor", bool, False, "score by the squared distance to the goal only"),
+    Param("meter_scoring", bool, False, "distances in metres (the biases times the resolution)"),
+    Param("oscillation_reset_dist", float, 0.05, "travel that clears the oscillation flags", unit="m", ge=0.0),
+    Param("escape_reset_dist", float, 0.10, "travel that ends an escape (backing up)", unit="m", ge=0.0),
+    Param("escape_reset_theta", float, math.pi / 2, "rotation that ends an escape", unit="rad", ge=0.0),
+    Param("xy_goal_tolerance", float, 0.10, "distance from the goal position that counts as reached", unit="m",
+          ge=0.0),
+    Param("yaw_goal_tolerance", float, 0.05, "difference from the goal yaw that counts as reached", unit="rad",
+          ge=0.0),
+    Param("latch_xy_goal_tolerance", bool, False, "once within xy_goal_tolerance, only turn to the goal yaw"),
+    Param("prune_plan", bool, True, "drop the plan poses the robot has passed"),
+    Param("trans_stopped_velocity", float, 0.1, "translation counted as stopped before the turn to the goal yaw",
+          unit="m/s", ge=0.0),
+    Param("rot_stopped_velocity", float, 0.1, "rotation counted as stopped before the turn to the goal yaw",
+          unit="rad/s", ge=0.0),
+    Param("controller_frequency", float, 20.0, "control rate: the DWA window and the braking steps are one period "
+          "(not > 0: 0.05 s); unset, move_base's ~controller_frequency (ROS searchParam)", unit="Hz"),
+    Param("final_approach_dist", float, 0.0, "Florence: within this distance of the goal, with the plan straight "
+          "ahead, drive at the speed that can still brake at the goal (sqrt(2 acc_lim_x d)) and steer onto the "
+          "plan (0: off, ROS)", unit="m", ge=0.0),
+    Param("rotate_while_braking", bool, False, "Florence: within xy_goal_tolerance, start the turn to the goal yaw "
+          "while braking (ROS stops first)"),
+    Param("turn_before_tolerance", bool, False, "Florence, with rotate_while_braking: brake and turn before "
+          "xy_goal_tolerance when a simulation of it ends well inside the tolerance and reaches the goal sooner"),
+)
+"""TrajectoryPlannerROS's parameters (``~TrajectoryPlannerROS/``: ROS names and defaults, plus
+Florence's three, off by default, which is ROS's behaviour)."""
 
-    acc_lim_x: float = 2.5
-    acc_lim_y: float = 2.5
-    acc_lim_theta: float = 3.2
-    max_vel_x: float = 0.5
-    min_vel_x: float = 0.1
-    max_vel_theta: float = 1.0
-    min_vel_theta: float = -1.0
-    min_in_place_vel_theta: float = 0.4
-    escape_vel: float = -0.1
-    holonomic_robot: bool = True
-    y_vels: tuple = (-0.3, -0.1, 0.1, 0.3)
-    sim_time: float = 1.0
-    sim_granularity: float = 0.025
-    angular_sim_granularity: float = None  # None: same as sim_granularity
-    vx_samples: int = 3
-    vtheta_samples: int = 20
-    path_distance_bias: float = 0.6
-    goal_distance_bias: float = 0.8
-    occdist_scale: float = 0.01
-    heading_lookahead: float = 0.325
-    heading_scoring: bool = False
-    heading_scoring_timestep: float = 0.8
-    dwa: bool = True
-    simple_attractor: bool = False
-    meter_scoring: bool = False
-    oscillation_reset_dist: float = 0.05
-    escape_reset_dist: float = 0.10
-    escape_reset_theta: float = math.pi / 2
-    xy_goal_tolerance: float = 0.10
-    yaw_goal_tolerance: float = 0.05
-    latch_xy_goal_tolerance: bool = False
-    prune_plan: bool = True
-    trans_stopped_velocity: float = 0.1
-    rot_stopped_velocity: float = 0.1
-    controller_frequency: float = 20.0
-    final_approach_dist: float = 0.0
-    rotate_while_braking: bool = False
-    turn_before_tolerance: bool = False
 
-    def __post_init__(self):
-        if self.angular_sim_granularity is None:
-            self.angular_sim_granularity = self.sim_granularity
-        self.y_vels = tuple(float(v) for v in self.y_vels)
-        self.validate()
+class PlannerParams(Params):
+    """TrajectoryPlannerROS's parameters (:data:`PARAMS`), validated, read-only, plus
+    :attr:`sim_period`. ``PlannerParams(**values)`` takes current names only (unknown names are
+    refused); :meth:`from_dict` reads a ``~TrajectoryPlannerROS`` dict with ROS's old names too.
+    Raises ParamError (a ValueError) naming every bad parameter."""
+
+    def __init__(self, **values):
+        if isinstance(values.get("y_vels"), tuple):
+            values["y_vels"] = list(values["y_vels"])
+        p = dict(PARAMS.validate(values))
+        if p["angular_sim_granularity"] is None:
+            p["angular_sim_granularity"] = p["sim_granularity"]
+        p["y_vels"] = tuple(float(v) for v in p["y_vels"])
+        problems = []
+        if p["min_vel_x"] > p["max_vel_x"]:
+            problems.append(f"~min_vel_x ({p['min_vel_x']}) must not exceed ~max_vel_x ({p['max_vel_x']})")
+        if p["min_in_place_vel_theta"] > p["max_vel_theta"]:
+            problems.append(f"~min_in_place_vel_theta ({p['min_in_place_vel_theta']}) must not exceed "
+                            f"~max_vel_theta ({p['max_vel_theta']})")
+        if problems:
+            raise ParamError("; ".join(problems))
+        if p["escape_vel"] >= 0.0:
+            log.warning("escape_vel %.3f m/s is not negative: the robot will move forward, not back up, "
+                        "when it is stuck", p["escape_vel"])
+        super().__init__(p)
 
     @property
     def sim_period(self):
@@ -146,59 +148,18 @@ class PlannerParams:
             return 1.0 / self.controller_frequency
         return 0.05
 
-    def validate(self):
-        """Raise ValueError naming the first parameter out of range."""
-        bools = {f.name for f in dataclasses.fields(self) if f.type is bool}
-        ints = {"vx_samples", "vtheta_samples"}
-        for f in dataclasses.fields(self):
-            value = getattr(self, f.name)
-            if f.name in bools:
-                if not isinstance(value, (bool, np.bool_)):
-                    raise ValueError(f"{f.name} must be a bool, got {value!r}")
-            elif f.name in ints:
-                if isinstance(value, bool) or int(value) != value:
-                    raise ValueError(f"{f.name} must be an integer, got {value!r}")
-            elif f.name != "y_vels" and not (isinstance(value, (int, float)) and math.isfinite(value)):
-                raise ValueError(f"{f.name} must be a finite number, got {value!r}")
-        positive = ("acc_lim_x", "acc_lim_y", "acc_lim_theta", "sim_time", "sim_granularity",
-                    "angular_sim_granularity")
-        for name in positive:
-            if not getattr(self, name) > 0.0:
-                raise ValueError(f"{name} must be positive, got {getattr(self, name)}")
-        non_negative = ("min_in_place_vel_theta", "path_distance_bias", "goal_distance_bias", "occdist_scale",
-                        "heading_lookahead", "heading_scoring_timestep", "oscillation_reset_dist",
-                        "escape_reset_dist", "escape_reset_theta", "xy_goal_tolerance", "yaw_goal_tolerance",
-                        "trans_stopped_velocity", "rot_stopped_velocity", "max_vel_x", "max_vel_theta",
-                        "final_approach_dist")
-        for name in non_negative:
-            if getattr(self, name) < 0.0:
-                raise ValueError(f"{name} must not be negative, got {getattr(self, name)}")
-        if self.vx_samples < 1:
-            raise ValueError(f"vx_samples must be at least 1, got {self.vx_samples}")
-        if self.vtheta_samples < 1:
-            raise ValueError(f"vtheta_samples must be at least 1, got {self.vtheta_samples}")
-        if self.min_vel_x > self.max_vel_x:
-            raise ValueError(f"min_vel_x ({self.min_vel_x}) must not exceed max_vel_x ({self.max_vel_x})")
-        if self.min_vel_theta > 0.0:
-            raise ValueError(f"min_vel_theta must not be positive, got {self.min_vel_theta}")
-        if self.min_in_place_vel_theta > self.max_vel_theta:
-            raise ValueError(f"min_in_place_vel_theta ({self.min_in_place_vel_theta}) must not exceed "
-                             f"max_vel_theta ({self.max_vel_theta})")
-        if self.escape_vel >= 0.0:
-            log.warning("escape_vel %.3f m/s is not negative: the robot will move forward, not back up, "
-                        "when it is stuck", self.escape_vel)
-
     @classmethod
     def from_dict(cls, d):
         """Parameters from a ``~TrajectoryPlannerROS`` dict (plus move_base's ``controller_frequency``).
 
         Accepts the deprecated names ``max_rotational_vel`` (sets max_vel_theta and
         min_vel_theta = -max), ``min_in_place_rotational_vel``, ``acc_lim_th``, ``pdist_scale``,
-        ``gdist_scale`` and ``backup_vel``; the current names win when both are given. Unknown
-        keys are ignored (logged at debug level). Raises ValueError naming a bad parameter.
+        ``gdist_scale`` and ``backup_vel``; the current names win when both are given. ``y_vels``
+        may be a string "[-0.3, 0.3]". Unknown keys are ignored (logged at debug level). Raises
+        ParamError naming a bad parameter.
         """
         d = dict(d or {})
-        names = {f.name for f in dataclasses.fields(cls)}
+        names = set(PARAMS.names())
         values = {}
         for old, new in _ALIASES.items():
             if old in d and new not in d:
@@ -206,7 +167,7 @@ class PlannerParams:
         if "max_rotational_vel" in d:
             mrv = d["max_rotational_vel"]
             if not isinstance(mrv, (int, float)) or isinstance(mrv, bool):
-                raise ValueError(f"max_rotational_vel must be a number, got {mrv!r}")
+                raise ParamError(f"~max_rotational_vel must be a number, got {mrv!r}")
             values.setdefault("max_vel_theta", mrv)
             values.setdefault("min_vel_theta", -mrv)
         for key, value in d.items():
@@ -217,21 +178,19 @@ class PlannerParams:
         if isinstance(values.get("y_vels"), str):
             text = values["y_vels"].replace("[", " ").replace("]", " ").replace(",", " ")
             try:
-                values["y_vels"] = tuple(float(t) for t in text.split())
+                values["y_vels"] = [float(t) for t in text.split()]
             except ValueError:
-                raise ValueError(f"y_vels must be a list of numbers, got {d['y_vels']!r}") from None
-        for key in ("vx_samples", "vtheta_samples"):
-            if key in values and isinstance(values[key], float) and values[key].is_integer():
-                values[key] = int(values[key])
-        for key, value in list(values.items()):
-            if isinstance(value, str) and key != "y_vels":
-                raise ValueError(f"{key} must not be a string, got {value!r}")
+                raise ParamError(f"~y_vels must be a list of numbers, got {d['y_vels']!r}") from None
         return cls(**values)
 
 
 # --------------------------------------------------------------------------------------------
 # Grid kernels (numba)
 # --------------------------------------------------------------------------------------------
+
+wrap_nb = numba.njit(cache=True)(angles.wrap_scalar)
+"""florence_common.angles.wrap_scalar for the kernels: an angle [rad] wrapped to [-pi, pi)."""
+
 
 @numba.njit(cache=True)
 def _cell(x, y, ox, oy, res, w, h):
@@ -436,9 +395,7 @@ def _heading_diff_nb(costs, cx, cy, x, y, heading, plan_cx, plan_cy, ox, oy, res
         if _line_cost(costs, cx, cy, plan_cx[i], plan_cy[i], True) >= 0.0:
             gx = ox + (plan_cx[i] + 0.5) * res
             gy = oy + (plan_cy[i] + 0.5) * res
-            a = math.atan2(gy - y, gx - x) - heading
-            a = math.atan2(math.sin(a), math.cos(a))
-            return abs(a)
+            return abs(wrap_nb(math.atan2(gy - y, gx - x) - heading))
     return 1.7976931348623157e308
 
 
@@ -602,12 +559,6 @@ def _plan_cells_run(costmap, plan_xy):
     rest = ok[first:]
     stop = first + (int(np.argmin(rest)) if not rest.all() else len(rest))
     return mx[first:stop], my[first:stop]
-
-
-def _shortest_angular_distance(a, b):
-    """Signed angle [rad] from ``a`` to ``b`` in [-pi, pi]."""
-    d = b - a
-    return math.atan2(math.sin(d), math.cos(d))
 
 
 # Kinds of samples, for the selection rules.
@@ -954,7 +905,7 @@ class TrajectoryPlanner:
     def _maybe_end_escape(self, x, y, yaw):
         p = self.params
         if (math.hypot(x - self.escape_x, y - self.escape_y) > p.escape_reset_dist
-                or abs(_shortest_angular_distance(self.escape_theta, yaw)) > p.escape_reset_theta):
+                or abs(angles.diff(yaw, self.escape_theta)) > p.escape_reset_theta):
             self.escaping = False
 
     def _escape_bookkeeping(self, cost, x, y, yaw):

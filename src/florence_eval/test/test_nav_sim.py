@@ -1,5 +1,8 @@
-"""The whole navigation stack in florence_sim's apartment: turtlebot_2dnav_control.launch sim:=true
-(simulator, filters, map_server, amcl, move_base) driven by an actionlib client, as a user would.
+"""move_base with the whole navigation stack in florence_sim's apartment: turtlebot_2dnav_control.launch
+sim:=true (simulator, filters, map_server, amcl, move_base) driven by an actionlib client, as a user would.
+
+(Here, not in move_base's tests: florence_sim and florence_eval depend on move_base through
+turtlebot_control, so move_base cannot depend on them, even for its tests.)
 
 One stack for the module (its start-up costs most); the tests run in file order and each starts
 where the robot stopped. Judged in simulated time (ground truth stamps)."""
@@ -12,13 +15,13 @@ import numpy as np
 import pytest
 import yaml
 
+from florence_common.maps import map_file
 from florence_common.processes import roslaunch, wait_for
-from florence_harness import workspace
 
-pytestmark = pytest.mark.ros
+pytestmark = pytest.mark.scenario
 
 START = (1.0, 2.5, 0.0)
-ROOMS = yaml.safe_load((workspace.root() / "maps" / "apartment" / "rooms.yaml").read_text())["rooms"]
+ROOMS = yaml.safe_load(map_file("apartment", "rooms.yaml").read_text())["rooms"]
 # An Euler circuit of the complete graph on the five rooms: every pair of hotspots once.
 CIRCUIT = ["living_room", "kitchen", "corridor", "bedroom", "bathroom", "living_room", "corridor", "bathroom",
            "kitchen", "bedroom", "living_room"]
@@ -112,16 +115,17 @@ def test_local_costmap_holds_the_chair_seat_the_laser_passes_under(nav, tf_buffe
     middle of the seat of the chair west of the dining table, 1.9 m from the start, is lethal,
     although the Hokuyo sees only the chair's legs and the Kinect the seat's near edge."""
     import rospy
-    from move_base.costmap_ros import pose_to_xyyaw
     from nav_msgs.msg import OccupancyGrid
+
+    from florence_common.pose import transform_points
+    from florence_common_ros.convert import to_xyyaw
 
     _, stack = nav
     seat = (2.45, 3.8)  # [m] in map (maps/apartment/apartment.world.yaml: chair_west)
     msg = rospy.wait_for_message("/move_base/local_costmap/costmap", OccupancyGrid, 30)
-    tx, ty, yaw = pose_to_xyyaw(tf_buffer.lookup_transform(msg.header.frame_id, "map", rospy.Time(0),
-                                                           rospy.Duration(10)))
-    x = tx + math.cos(yaw) * seat[0] - math.sin(yaw) * seat[1]
-    y = ty + math.sin(yaw) * seat[0] + math.cos(yaw) * seat[1]
+    map_in_costmap = to_xyyaw(tf_buffer.lookup_transform(msg.header.frame_id, "map", rospy.Time(0),
+                                                         rospy.Duration(10)))
+    x, y = transform_points(map_in_costmap, [seat])[0]
     info = msg.info
     col = int((x - info.origin.position.x) / info.resolution)
     row = int((y - info.origin.position.y) / info.resolution)
@@ -130,6 +134,7 @@ def test_local_costmap_holds_the_chair_seat_the_laser_passes_under(nav, tf_buffe
     assert data[row, col] == 100, f"the chair's seat costs {data[row, col]} in the local costmap{dump(stack)}"
 
 
+@pytest.mark.slow
 def test_every_pair_of_room_hotspots(nav):
     session, stack = nav
     legs = []
@@ -227,6 +232,7 @@ def test_cancel_mid_route_stops_the_robot(nav):
     assert turn_stop <= abs(at_cancel[5]) / 1.0 + 0.25, f"still turning {turn_stop:.2f} s after the cancel"
 
 
+@pytest.mark.slow
 def test_doorway_blocked_for_good_ends_in_recoveries_then_aborted(nav):
     from florence_sim.srv import RemovePerson, SetPerson
 

@@ -1,0 +1,270 @@
+"""Navigation metrics against florence_sim's ground truth: what bench/nav.py reports per leg and
+over a run (ROS-free: numpy, scipy; florence_sim's world and robot model on request).
+
+A leg's ground-truth track is an array of rows (t [s], x [m], y [m], yaw [rad], v [m/s],
+w [rad/s]) as :meth:`florence_eval.nav_session.NavSession.track` returns it; goals and poses
+are (x [m], y [m], yaw [rad]) in the map frame.
+
+The ideal time of a leg is its planned (shortest) path length over max_vel_x. The goals' yaws are
+random, and each leg starts and ends with a turn that even a perfect controller needs time for:
+the ratio "with turns" adds those two turns at max_rotational_vel and velocity_filter's angular
+acceleration (:func:`turn_time`).
+"""
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from florence_common import angles
+from florence_common.maps import map_file
+
+WORLD = ("apartment", "apartment.world.yaml")  # below maps/: turtlebot_2dnav_control.launch's default world
+MAX_VEL_X = 0.5  # [m/s] the seed's TrajectoryPlannerROS max_vel_x
+MAX_VEL_TH = 1.5  # [rad/s] the seed's max_rotational_vel
+ACC_TH = 1.0  # [rad/s^2] velocity_filter's max_angular_acc, the base's real limit
+XY_GOAL_TOLERANCE = 0.25  # [m] the seed's TrajectoryPlannerROS xy_goal_tolerance
+YAW_GOAL_TOLERANCE = 0.3  # [rad] the seed's yaw_goal_tolerance
+TARGETS = {"success_rate": 0.98, "collisions": 0, "time_ratio_median": 1.3}  # issue 6
+
+
+# --- goals and ideal times ---------------------------------------------------------------------------
+def random_goals(grid, count, clearance, rng):
+    """``count`` poses (x, y, yaw) on free cells of ``grid`` (map_server's GridMap) at least
+    ``clearance`` [m] from any cell that is not free."""
+    from scipy.ndimage import distance_transform_edt
+
+    free = grid.data == 0
+    dist = distance_transform_edt(free) * grid.resolution
+    rows, cols = np.nonzero(dist >= clearance)
+    pick = rng.choice(len(rows), size=count, replace=True)
+    x = grid.origin[0] + (cols[pick] + 0.5) * grid.resolution
+    y = grid.origin[1] + (rows[pick] + 0.5) * grid.resolution
+    return np.column_stack([x, y, rng.uniform(-math.pi, math.pi, count)])
+
+
+def turn_time(angle, max_vel=MAX_VEL_TH, acc=ACC_TH):
+    """Least time [s] to turn by ``angle`` [rad] (wrapped) from rest to rest within ``max_vel``
+    [rad/s] and ``acc`` [rad/s^2]."""
+    angle = abs(angles.wrap(angle))
+    if angle <= max_vel ** 2 / acc:
+        return 2.0 * math.sqrt(angle / acc)
+    return max_vel / acc + angle / max_vel
+
+
+def plan_length_and_turns(xy, start, goal, end_m=0.3):
+    """(length [m], turns [s]) of a plan (N, 2) [m] from ``start`` to ``goal`` (x, y, yaw): its
+    length and the least time for the turn from the start's heading onto the plan's first
+    ``end_m`` metres and from the plan's last ``end_m`` metres to the goal's yaw."""
+    xy = np.asarray(xy, dtype=float).reshape(-1, 2)
+    along = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
+    length = float(along[-1])
+
+    def heading(a, b):  # direction [rad] from a to b
+        return math.atan2(b[1] - a[1], b[0] - a[0])
+
+    first = min(int(np.searchsorted(along, end_m)), len(xy) - 1)
+    last = max(int(np.searchsorted(along, length - end_m)) - 1, 0)
+    turns = turn_time(heading(xy[0], xy[first]) - start[2]) + turn_time(goal[2] - heading(xy[last], xy[-1]))
+    return length, turns
+
+
+# --- one leg's track ---------------------------------------------------------------------------------
+def time_breakdown(track):
+    """Simulated seconds (driving, turning on the spot, standing) of a track."""
+    track = np.asarray(track)
+    if len(track) < 2:
+        return {"driving_s": 0.0, "turning_in_place_s": 0.0, "standing_s": 0.0}
+    dt = np.diff(track[:, 0])
+    v, w = np.abs(track[:-1, 4]), np.abs(track[:-1, 5])
+    moving = v >= 0.03
+    turning = ~moving & (w >= 0.05)
+    return {"driving_s": float(dt[moving].sum()), "turning_in_place_s": float(dt[turning].sum()),
+            "standing_s": float(dt[~moving & ~turning].sum())}
+
+
+def time_to_rest(track, t0, v=0.01, w=0.01):
+    """Simulated seconds from ``t0`` until the track came to rest for good (speeds within ``v``
+    [m/s] and ``w`` [rad/s] from then on)."""
+    track = np.asarray(track)
+    moving = np.nonzero((np.abs(track[:, 4]) > v) | (np.abs(track[:, 5]) > w))[0]
+    if len(moving) == 0:
+        return 0.0
+    last = moving[-1]
+    return float(track[min(last + 1, len(track) - 1), 0] - t0)
+
+
+def leg_phases(track, goal, start_m=0.5, end_m=0.8):
+    """Simulated seconds a leg's track took for its first ``start_m`` [m] (until the robot was that
+    far from where it started) and for its end (from the first time it came within ``end_m`` [m]
+    of the goal to the last row). In a straight line from rest, at max_vel_x and acc_lim_x
+    0.5 m/s^2: 1.5 s and 2.1 s."""
+    track = np.asarray(track)
+    t = track[:, 0]
+    away = np.nonzero(np.hypot(track[:, 1] - track[0, 1], track[:, 2] - track[0, 2]) > start_m)[0]
+    near = np.nonzero(np.hypot(track[:, 1] - goal[0], track[:, 2] - goal[1]) < end_m)[0]
+    start = t[away[0]] - t[0] if len(away) else t[-1] - t[0]
+    end = t[-1] - t[near[0]] if len(near) else 0.0
+    return {"start_s": float(start), "end_s": float(end)}
+
+
+def goal_error(track, goal):
+    """Distance [m] and absolute yaw difference [rad] between the last row of a track and the goal
+    (x, y, yaw); (None, None) for an empty track."""
+    if len(track) == 0:
+        return None, None
+    x, y, yaw = track[-1, 1:4]
+    return float(math.hypot(goal[0] - x, goal[1] - y)), abs(angles.diff(float(goal[2]), float(yaw)))
+
+
+def robot_body():
+    """(radius, height) [m] of florence_sim's robot body: the Create's cylinder (the base_link
+    cylinder the simulator's bumpers use), and the top of the robot, below which an obstacle stops
+    it, both from the robot description."""
+    from florence_sim.robot_model import RobotModel
+
+    robot = RobotModel.from_xacro()
+    return robot.cylinder_radius("base_link"), robot.height()
+
+
+def load_scene(world=None):
+    """florence_sim's scene of a world file (the apartment's, :data:`WORLD`, by default), for
+    :func:`body_clearance`."""
+    from florence_sim.world import load_world
+
+    return load_world(map_file(*WORLD) if world is None else world).scene
+
+
+def body_clearance(scene, track, radius, height):
+    """Least gap [m] between the robot's body (a cylinder of ``radius`` up to ``height``, what
+    florence_sim's bumpers feel) and the world along a track: about 0.005 m or less is a bumper
+    contact; None for an empty track."""
+    xy = np.asarray(track, dtype=float).reshape(-1, 6)[:, 1:3]
+    if len(xy) == 0:
+        return None
+    dist, _ = scene.clearance(xy, z_max=height, z_min=0.0)
+    return float(dist.min() - radius)
+
+
+def leg_record(goal, state, text, took, driven, plan_m, turns_s, track, t0, collisions, collision_poses, scene,
+               body, max_vel_x=MAX_VEL_X):
+    """Everything bench/nav.py reports of one leg, as a JSON-ready dict.
+
+    ``goal`` (x, y, yaw); ``state``/``text`` the action's result; ``took`` [s] simulated time to
+    the result and ``driven`` [m] from NavSession.go; ``plan_m``/``turns_s`` from
+    :func:`plan_length_and_turns`; ``track`` the ground truth since ``t0`` [s], up to the base at
+    rest after the result; ``collisions``/``collision_poses`` the bumper hits of the leg; ``scene``
+    and ``body`` (radius, height) for :func:`body_clearance`."""
+    track = np.asarray(track).reshape(-1, 6)
+    rest = time_to_rest(track, t0)
+    rest_error = goal_error(track, goal)[0]
+    clearance = body_clearance(scene, track, *body)  # until rest
+    track = track[track[:, 0] <= t0 + took]
+    end_error, end_yaw_error = goal_error(track, goal)
+    ideal = plan_m / max_vel_x
+    return {
+        "goal": [float(v) for v in goal], "state": state, "text": text, "time_s": took,
+        "plan_length_m": plan_m, "driven_m": driven, "ratio": took / ideal,
+        "turns_s": turns_s, "ratio_with_turns": took / (ideal + turns_s),
+        "rest_s": rest, "ratio_to_rest": rest / ideal,
+        "end_error_m": end_error, "end_yaw_error_rad": end_yaw_error, "rest_error_m": rest_error,
+        **time_breakdown(track), **leg_phases(track, goal),
+        "collisions": collisions,
+        "collision_poses": [list(p) for p in collision_poses],
+        "body_clearance_m": clearance,
+        "track": track[::5].round(3).tolist(),
+    }
+
+
+# --- over a run --------------------------------------------------------------------------------------
+def error_spread(errors, tolerance):
+    """Median, p90, max and the number beyond ``tolerance`` of the errors that are not None."""
+    e = np.array([v for v in errors if v is not None], dtype=float)
+    if len(e) == 0:
+        return None
+    return {"median": float(np.median(e)), "p90": float(np.percentile(e, 90)), "max": float(e.max()),
+            "beyond_tolerance": int(np.sum(e > tolerance))}
+
+
+def clearance_spread(values):
+    """Least, 5th percentile and median of the legs' least clearances [m] that are not None."""
+    v = np.array([x for x in values if x is not None])
+    if len(v) == 0:
+        return None
+    return {"min": float(v.min()), "p5": float(np.percentile(v, 5)), "median": float(np.median(v))}
+
+
+def summarise(legs):
+    """The run's figures over its legs (:func:`leg_record`): success, collisions, body clearance, time
+    ratios (the medians over the goals reached), phases, goal errors and where the time went."""
+    ok = [leg for leg in legs if leg["state"] == "SUCCEEDED"]
+
+    def median(key):  # over the goals reached
+        return float(np.median([leg[key] for leg in ok])) if ok else None
+
+    ratios = np.array([leg["ratio"] for leg in ok])
+    return {
+        "pairs": len(legs), "succeeded": len(ok), "success_rate": len(ok) / max(1, len(legs)),
+        "collisions": int(sum(leg["collisions"] for leg in legs)),
+        # each leg's least ground-truth gap between the robot's body and the world, every pose
+        "body_clearance_m": clearance_spread([leg["body_clearance_m"] for leg in legs]),
+        "time_ratio_median": float(np.median(ratios)) if len(ratios) else None,
+        "time_ratio_p90": float(np.percentile(ratios, 90)) if len(ratios) else None,
+        "time_ratio_max": float(ratios.max()) if len(ratios) else None,
+        # against plan length / max_vel_x plus the least time for the turn from the robot's heading
+        # onto the plan and from the plan's last heading to the goal yaw: what the random goal yaws
+        # cost at best
+        "time_ratio_with_turns_median": median("ratio_with_turns"),
+        # to the moment the base is at rest (the goal ends while it may still brake or finish its
+        # turn under velocity_filter's deceleration)
+        "time_to_rest_ratio_median": median("ratio_to_rest"),
+        "rest_after_outcome_s": ({"median": float(np.median([leg["rest_s"] - leg["time_s"] for leg in ok])),
+                                  "max": float(max(leg["rest_s"] - leg["time_s"] for leg in ok))} if ok else None),
+        # the first 0.5 m and the last 0.8 m of a leg (1.5 s and 2.1 s in a straight line)
+        "phases_median_s": {k: median(k) for k in ("start_s", "end_s")},
+        # ground truth against the goal at the result and once at rest (move_base judges by amcl's pose)
+        "goal_error": {k: error_spread([leg[k] for leg in ok], tol)
+                       for k, tol in (("end_error_m", XY_GOAL_TOLERANCE), ("end_yaw_error_rad", YAW_GOAL_TOLERANCE),
+                                      ("rest_error_m", XY_GOAL_TOLERANCE))},
+        "time_share": {k: float(sum(leg[k] for leg in ok) / max(1e-9, sum(leg["time_s"] for leg in ok)))
+                       for k in ("driving_s", "turning_in_place_s", "standing_s")},
+        "failures": [{k: leg[k] for k in ("goal", "state", "text")} for leg in legs if leg["state"] != "SUCCEEDED"],
+        "targets": TARGETS,
+    }
+
+
+def clearance_of(path, scene=None, body=None):
+    """The body clearances of the legs of a saved nav.json (from its saved tracks, every 5th
+    ground-truth pose, so the least gap may be a little smaller than printed): the spread and the
+    five closest legs (numbered from 1). Raises OSError or ValueError for a file it cannot read."""
+    data = json.loads(Path(path).read_text())
+    scene = load_scene() if scene is None else scene
+    radius, height = robot_body() if body is None else body
+    per_leg = [body_clearance(scene, leg["track"], radius, height) for leg in data["legs"]]
+    worst = sorted((c, i + 1) for i, c in enumerate(per_leg) if c is not None)[:5]
+    return {"file": str(path), "body_clearance_m": clearance_spread(per_leg),
+            "closest_legs": [{"leg": i, "clearance_m": round(c, 4)} for c, i in worst]}
+
+
+def plot_legs(path, grid, legs, title):
+    """Every leg's track over the map (blue reached, red not; goals as crosses), written to ``path``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 8.5))
+    ax.imshow(grid.shades(), cmap="gray", origin="lower", extent=grid.extent, vmin=0, vmax=1)
+    for leg in legs:
+        track = np.asarray(leg["track"])
+        if len(track):
+            color = "tab:blue" if leg["state"] == "SUCCEEDED" else "tab:red"
+            ax.plot(track[:, 1], track[:, 2], "-", color=color, lw=0.8, alpha=0.6)
+        ax.plot(leg["goal"][0], leg["goal"][1], "x", color="tab:orange", ms=4)
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_title(title, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

@@ -1,0 +1,128 @@
+"""bench/nav.py's metrics (florence_eval.nav_metrics) and the shipped navigation parameters
+(florence_eval.nav_config), no ROS master.
+
+The body clearance is what backs "collisions 0" with a margin, so it must see the table top the
+laser passes under."""
+
+import math
+import os
+
+import numpy as np
+import pytest
+from florence_eval.metrics import cpu_seconds
+from florence_eval.nav_config import move_base_params
+
+from florence_eval import nav_metrics
+
+pytestmark = pytest.mark.unit
+
+
+@pytest.fixture(scope="module")
+def world_and_body():
+    return nav_metrics.load_scene(), nav_metrics.robot_body()
+
+
+def track(*xy):
+    return np.array([[0.0, x, y, 0.0, 0.0, 0.0] for x, y in xy])
+
+
+# --- the robot's body against the world ------------------------------------------------------------
+def test_robot_body_is_the_create_up_to_the_kinect(world_and_body):
+    _, (radius, height) = world_and_body
+    assert 0.15 < radius < 0.2  # the Create's body
+    assert height > 0.71  # taller than the dining table: its top stops the robot
+
+
+def test_body_clearance_sees_the_table_top_and_not_only_its_legs(world_and_body):
+    scene, (radius, height) = world_and_body
+    # the dining table: top x 2.8..4.0, y 3.4..4.2, 0.71 m up; legs at (3.4 +- 0.55, 3.8 +- 0.35)
+    east = nav_metrics.body_clearance(scene, track((4.0 + radius + 0.10, 3.8)), radius, height)
+    assert east == pytest.approx(0.10, abs=1e-6)  # from the top's edge; the legs are further off
+    under = nav_metrics.body_clearance(scene, track((4.0 + radius + 0.10, 3.8), (3.4, 3.6)), radius, height)
+    assert under < 0.0  # under the top: overlapping it
+    assert nav_metrics.body_clearance(scene, track((4.0 + radius + 0.10, 3.8)), radius, 0.5) > 0.14  # legs only
+    assert nav_metrics.body_clearance(scene, np.empty((0, 6)), radius, height) is None
+
+
+def test_clearance_spread_skips_legs_without_a_track():
+    spread = nav_metrics.clearance_spread([0.3, None, 0.1, 0.2])
+    assert spread["min"] == pytest.approx(0.1) and spread["median"] == pytest.approx(0.2)
+    assert nav_metrics.clearance_spread([None]) is None
+
+
+# --- ideal times --------------------------------------------------------------------------------------
+@pytest.mark.parametrize(("angle", "expected"), [
+    (0.0, 0.0),
+    (1.0, 2.0),  # within max_vel^2 / acc = 2.25 rad: accelerate half-way, brake the rest (2 sqrt(1 / 1.0))
+    (math.pi, 1.5 + math.pi / 1.5),  # reaches 1.5 rad/s: ramp up and down (1.5 s) plus the rest at speed
+    (2.0 * math.pi + 1.0, 2.0),  # wrapped
+    (-1.0, 2.0),
+])
+def test_turn_time_from_rest_to_rest(angle, expected):
+    assert nav_metrics.turn_time(angle) == pytest.approx(expected)
+
+
+def test_plan_length_and_turns():
+    xy = np.column_stack([np.linspace(0.0, 2.0, 41), np.zeros(41)])  # 2 m along x
+    length, turns = nav_metrics.plan_length_and_turns(xy, (0.0, 0.0, math.pi / 2), (2.0, 0.0, 0.0))
+    assert length == pytest.approx(2.0)
+    assert turns == pytest.approx(nav_metrics.turn_time(math.pi / 2))  # onto the plan; the goal yaw is its heading
+
+
+# --- one leg --------------------------------------------------------------------------------------------
+def straight_leg():
+    """0.1 s rows: 1 s standing, 2 s at 0.5 m/s along x, 1 s turning on the spot, 1 s standing."""
+    rows = []
+    x = yaw = 0.0
+    for k in range(50):
+        t = 0.1 * k
+        v = 0.5 if 1.0 <= t < 3.0 else 0.0
+        w = 1.0 if 3.0 <= t < 4.0 else 0.0
+        rows.append((t, x, 0.0, yaw, v, w))
+        x += 0.1 * v
+        yaw += 0.1 * w
+    return np.array(rows)
+
+
+def test_time_breakdown_rest_and_phases():
+    leg = straight_leg()
+    parts = nav_metrics.time_breakdown(leg)
+    assert parts["driving_s"] == pytest.approx(2.0) and parts["turning_in_place_s"] == pytest.approx(1.0)
+    assert parts["standing_s"] == pytest.approx(1.9)
+    assert nav_metrics.time_to_rest(leg, 0.5) == pytest.approx(3.5)  # moving until 4.0 s
+    phases = nav_metrics.leg_phases(leg, (1.0, 0.0, 1.0))
+    assert phases["start_s"] == pytest.approx(2.1)  # 0.5 m from the start at 2.1 s
+    assert phases["end_s"] == pytest.approx(4.9 - 1.5)  # within 0.8 m of the goal (x > 0.2 m) from 1.5 s
+    distance, yaw_error = nav_metrics.goal_error(leg, (1.0, 0.0, 1.0 + 2.0 * math.pi))
+    assert distance == pytest.approx(0.0, abs=1e-9) and yaw_error == pytest.approx(0.0, abs=1e-9)
+
+
+def test_summary_over_legs():
+    reached = {"state": "SUCCEEDED", "goal": [1.0, 0.0, 0.0], "text": "", "collisions": 0, "body_clearance_m": 0.1,
+               "ratio": 1.2, "ratio_with_turns": 1.1, "ratio_to_rest": 1.3, "rest_s": 5.0, "time_s": 4.0,
+               "start_s": 1.5, "end_s": 2.0, "end_error_m": 0.1, "end_yaw_error_rad": 0.2, "rest_error_m": 0.3,
+               "driving_s": 3.0, "turning_in_place_s": 0.5, "standing_s": 0.5}
+    failed = {**reached, "state": "ABORTED", "text": "no path", "collisions": 1, "body_clearance_m": 0.0}
+    summary = nav_metrics.summarise([reached, failed])
+    assert summary["pairs"] == 2 and summary["succeeded"] == 1 and summary["success_rate"] == 0.5
+    assert summary["collisions"] == 1 and summary["body_clearance_m"]["min"] == 0.0
+    assert summary["time_ratio_median"] == 1.2 and summary["rest_after_outcome_s"]["max"] == 1.0
+    assert summary["goal_error"]["rest_error_m"]["beyond_tolerance"] == 1  # 0.3 m > xy_goal_tolerance 0.25 m
+    assert summary["time_share"]["driving_s"] == pytest.approx(0.75)
+    assert summary["failures"] == [{"goal": [1.0, 0.0, 0.0], "state": "ABORTED", "text": "no path"}]
+    assert nav_metrics.summarise([])["time_ratio_median"] is None
+
+
+# --- what ships and what a bench measures -------------------------------------------------------------------
+def test_move_base_params_are_the_launch_files():
+    params = move_base_params()
+    assert params["planner_frequency"] == 1.0 and params["controller_frequency"] == 5.0
+    assert params["global_costmap"]["inflation_radius"] == 0.4
+    assert params["local_costmap"]["width"] == 4.0 and params["local_costmap"]["scan"]["data_type"] == "LaserScan"
+    assert params["TrajectoryPlannerROS"]["max_vel_x"] == nav_metrics.MAX_VEL_X
+    assert params["TrajectoryPlannerROS"]["max_rotational_vel"] == nav_metrics.MAX_VEL_TH
+    assert params["TrajectoryPlannerROS"]["xy_goal_tolerance"] == nav_metrics.XY_GOAL_TOLERANCE
+
+
+def test_cpu_seconds_of_this_process():
+    assert cpu_seconds(os.getpid()) > 0.0
