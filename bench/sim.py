@@ -18,10 +18,13 @@ import math
 import os
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
-RESULTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results")
+from florence_common.files import atomic_write
+
+RESULTS = Path(__file__).resolve().parent / "results"
 
 
 def make_sim(width=160, height=120):
@@ -84,25 +87,9 @@ def render_times(repeats=30):
     return out
 
 
-def _node_pid(launch_pid):
-    for entry in os.listdir("/proc"):
-        if not entry.isdigit():
-            continue
-        try:
-            with open(f"/proc/{entry}/cmdline", "rb") as f:
-                cmd = f.read().decode(errors="replace")
-            with open(f"/proc/{entry}/stat") as f:
-                ppid = int(f.read().rsplit(")", 1)[1].split()[1])
-        except OSError:
-            continue
-        if "florence_sim_node" in cmd and ppid == launch_pid:
-            return int(entry)
-    return None
-
-
 def run_ros(seconds):
     """The node unthrottled, without and then with a depth subscriber."""
-    from florence_eval.metrics import cpu_seconds
+    from florence_eval.metrics import cpu_seconds, node_pid
 
     from florence_common.processes import RosMaster, roslaunch, wait_for
 
@@ -119,7 +106,7 @@ def run_ros(seconds):
         clock = {"t": None}
         rospy.Subscriber("/clock", Clock, lambda m: clock.__setitem__("t", m.clock.to_sec()), queue_size=1)
         wait_for(lambda: clock["t"] is not None and clock["t"] > 1.0, 120.0, what="/clock")
-        pid = wait_for(lambda: _node_pid(launch.pid), 30.0, what="florence_sim_node process")
+        pid = node_pid(master.uri, "/florence_sim")  # registered: it publishes /clock
         frames = {"n": 0}
 
         def count(_msg):
@@ -161,13 +148,9 @@ def main(argv=None):
         results["ros_node"] = run_ros(args.ros_seconds)
     results["meets_10x_on_one_core"] = results["core_with_depth"]["cpu_seconds_per_sim_second"] <= 0.1
     print(json.dumps(results, indent=2))
-    os.makedirs(RESULTS, exist_ok=True)
-    path = os.path.join(RESULTS, "sim.json")
-    tmp = path + ".tmp"
-    with open(tmp, "w") as f:
-        json.dump(results, f, indent=2)
-    os.replace(tmp, path)
-    print(f"wrote {path}")
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    atomic_write(str(RESULTS / "sim.json"), json.dumps(results, indent=2).encode())
+    print(f"wrote {RESULTS / 'sim.json'}")
     return 0
 
 

@@ -9,6 +9,8 @@ import importlib
 
 import pytest
 
+pytestmark = pytest.mark.unit
+
 F32 = "float32"
 XYPHI = [("x", F32), ("y", F32), ("phi", F32)]
 STATUS = [("success", "bool"), ("message", "string")]

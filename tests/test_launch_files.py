@@ -14,6 +14,8 @@ from roslib.packages import find_node
 
 from florence_harness import workspace
 
+pytestmark = pytest.mark.unit
+
 # Executables the seed's launch files start that are not written yet, with the issue
 # that delivers them. An entry must be removed once the executable exists (checked below).
 PENDING = {

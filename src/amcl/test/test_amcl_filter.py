@@ -14,6 +14,8 @@ from amcl.particle_filter import (
 )
 from amcl.sensor import OccupancyMap
 
+pytestmark = pytest.mark.unit
+
 
 @pytest.mark.parametrize(("k", "expected"), [
     # n = ceil((k-1)/(2 err) * (1 - 2/(9(k-1)) + sqrt(2/(9(k-1))) z)^3), err 0.05, z 0.99, by hand:

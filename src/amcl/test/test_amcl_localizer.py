@@ -11,6 +11,8 @@ from amcl.sensor import OccupancyMap
 
 from florence_common import angles
 
+pytestmark = pytest.mark.unit
+
 RES = 0.05
 LASER_XY = np.array([0.06, 0.0])
 BEARINGS = -np.linspace(-2.0862, 2.0862, 683)  # upside-down URG: reversed order

@@ -8,6 +8,8 @@ from amcl.motion import decompose, noise_scales, sample_motion
 
 from florence_common import angles
 
+pytestmark = pytest.mark.unit
+
 ALPHAS = (0.2, 0.2, 0.2, 0.2, 0.2)
 
 

@@ -12,6 +12,7 @@ from florence_common.processes import ManagedProcess, wait_for
 
 pytestmark = pytest.mark.ros
 
+
 RES = 0.05
 LASER_XYZ = (0.06, 0.0, -0.02)  # base_laser_link on the base, rpy (pi, 0, 0): upside down
 ANGLES = np.linspace(-2.0862, 2.0862, 683)

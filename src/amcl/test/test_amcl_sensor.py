@@ -15,6 +15,8 @@ from amcl.sensor import (
     subsample_beams,
 )
 
+pytestmark = pytest.mark.unit
+
 RES = 0.05
 
 

@@ -10,7 +10,8 @@ import pytest
 from florence_common.processes import ManagedProcess, wait_for
 from florence_harness import workspace
 
-pytestmark = pytest.mark.ros
+pytestmark = pytest.mark.scenario
+
 
 START = (1.0, 2.5, 0.0)
 SHORT_TOUR = [(1.2, 4.6), (2.45, 4.9), (2.45, 5.9)]  # living room -> corridor door, about 4.6 m

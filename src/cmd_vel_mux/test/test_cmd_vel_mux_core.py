@@ -3,6 +3,8 @@
 import pytest
 from cmd_vel_mux.mux import IDLE, MuxInput, PriorityMux, parse_inputs
 
+pytestmark = pytest.mark.unit
+
 INPUTS = [
     MuxInput("teleop", "input/teleop", 10, 0.5),
     MuxInput("follow_me", "input/follow_me", 5, 0.5),

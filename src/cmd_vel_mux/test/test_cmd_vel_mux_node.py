@@ -87,6 +87,7 @@ def load(relative):
     return {n.name: n for n in config.nodes}
 
 
+@pytest.mark.unit
 def test_launch_files_wire_every_producer_through_the_mux_and_the_filter():
     minimal = load("src/turtlebot_control/launch/minimal_control.launch")
     assert minimal["cmd_vel_mux"].package == "cmd_vel_mux"

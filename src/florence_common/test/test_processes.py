@@ -8,6 +8,8 @@ import pytest
 
 from florence_common.processes import ManagedProcess, ProcessError, RosMaster, free_port, pid_alive, wait_for
 
+pytestmark = pytest.mark.ros
+
 
 def test_free_port_is_bindable_and_not_the_default():
     port = free_port()

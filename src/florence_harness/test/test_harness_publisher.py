@@ -2,6 +2,8 @@
 
 import pytest
 
+pytestmark = pytest.mark.ros
+
 
 @pytest.mark.ros
 def test_one_publisher_per_topic_and_type(publisher):

@@ -10,6 +10,8 @@ from florence_sim.people import Person
 from florence_sim.robot_model import RobotModel
 from florence_sim.sensors import CameraConfig, DepthCamera, LaserConfig, UrgLaser, world_pose
 
+pytestmark = pytest.mark.unit
+
 DT = 0.01
 
 

@@ -4,22 +4,20 @@ import math
 
 import numpy as np
 import pytest
-from florence_sim.base import BaseConfig
 from florence_sim.messages import Messages
-from florence_sim.robot_model import RobotModel
 from florence_sim.sim import SimConfig, Simulator
-from florence_sim.world import load_world
 
 from florence_common.maps import map_file
+from florence_common_ros.convert import yaw_of
+
+pytestmark = pytest.mark.unit
 
 APARTMENT = map_file("apartment", "apartment.world.yaml")
 
 
 @pytest.fixture(scope="module")
 def sim():
-    robot = RobotModel.from_xacro()
-    base = BaseConfig(radius=robot.cylinder_radius("base_link"), height=robot.height(), wheel_separation=0.26)
-    return Simulator(load_world(APARTMENT), robot, base, SimConfig(), start=(1.2, 3.0, 0.3))
+    return Simulator.from_files(APARTMENT, config=SimConfig(), start=(1.2, 3.0, 0.3))
 
 
 @pytest.fixture(scope="module")
@@ -89,7 +87,7 @@ def test_fake_localization_composes_to_ground_truth(sim, stamp):
     m = Messages(sim)
     map_odom = m.map_to_odom(stamp).transform
     _, odom_base = m.odometry(stamp)
-    yaw = 2 * math.atan2(map_odom.rotation.z, map_odom.rotation.w)
+    yaw = yaw_of(map_odom.rotation)
     c, s = math.cos(yaw), math.sin(yaw)
     ox, oy = odom_base.transform.translation.x, odom_base.transform.translation.y
     x = map_odom.translation.x + c * ox - s * oy

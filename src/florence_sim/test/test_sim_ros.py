@@ -12,8 +12,12 @@ import time
 import numpy as np
 import pytest
 
+from florence_common import angles
 from florence_common.maps import map_file
 from florence_common.processes import roslaunch, wait_for
+from florence_common_ros.convert import to_matrix, yaw_of
+
+pytestmark = pytest.mark.scenario
 
 RTF = 3.0  # small world
 RTF_APARTMENT = 2.0
@@ -107,14 +111,6 @@ def topics(small_world, rospy_node):
     })
     yield t
     _unsubscribe(t)
-
-
-def _yaw(q):
-    return math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
-
-
-def _wrap(a):
-    return math.atan2(math.sin(a), math.cos(a))
 
 
 def _set_pose(rospy, x, y, yaw):
@@ -214,7 +210,6 @@ def apartment_topics(apartment, rospy_node):
 class TestSmallWorld:
     """A 6 x 6 m room without people."""
 
-    @pytest.mark.ros
     def test_laser_inversion_checked_through_live_tf(self, topics, rospy_node, tf_buffer):
         """The wall on the robot's left appears on its left once the scan goes through tf."""
         import rospy
@@ -227,16 +222,12 @@ class TestSmallWorld:
         assert scan.header.frame_id == "base_laser_link"
         tf = wait_for(lambda: tf_buffer.lookup_transform("base_footprint", "base_laser_link", rospy.Time(0),
                                                          rospy.Duration(1.0)), 30.0, what="tf base_laser_link")
-        q = tf.transform.rotation
-        rot = np.array([[1 - 2 * (q.y ** 2 + q.z ** 2), 2 * (q.x * q.y - q.z * q.w), 2 * (q.x * q.z + q.y * q.w)],
-                        [2 * (q.x * q.y + q.z * q.w), 1 - 2 * (q.x ** 2 + q.z ** 2), 2 * (q.y * q.z - q.x * q.w)],
-                        [2 * (q.x * q.z - q.y * q.w), 2 * (q.y * q.z + q.x * q.w), 1 - 2 * (q.x ** 2 + q.y ** 2)]])
-        trans = np.array([tf.transform.translation.x, tf.transform.translation.y, tf.transform.translation.z])
+        laser_in_base = to_matrix(tf)
         ranges = np.array(scan.ranges)
-        angles = scan.angle_min + np.arange(len(ranges)) * scan.angle_increment
+        bearings = scan.angle_min + np.arange(len(ranges)) * scan.angle_increment
         valid = (ranges >= scan.range_min) & (ranges <= scan.range_max)
-        local = np.stack([ranges * np.cos(angles), ranges * np.sin(angles), np.zeros_like(ranges)], axis=1)[valid]
-        base = local @ rot.T + trans
+        local = np.stack([ranges * np.cos(bearings), ranges * np.sin(bearings), np.zeros_like(ranges)], axis=1)[valid]
+        base = local @ laser_in_base[:3, :3].T + laser_in_base[:3, 3]
         # robot at (3.0, 2.5) facing +x: the north wall face (y = 5.95) is 3.45 m to its left,
         # the south wall face (y = 0.05) 2.45 m to its right
         sideways = base[np.abs(base[:, 0]) < 0.2]
@@ -250,7 +241,6 @@ class TestSmallWorld:
         ahead = base[np.abs(base[:, 1]) < 0.1]
         assert len(ahead) and np.median(ahead[:, 0]) == pytest.approx(2.95, abs=0.04)
 
-    @pytest.mark.ros
     def test_sim_time_advances_at_the_requested_factor(self, topics):
         s0, w0 = _sim_now(topics), time.monotonic()
         wait_for(lambda: time.monotonic() - w0 > 3.0, 10.0)
@@ -258,7 +248,6 @@ class TestSmallWorld:
         # never faster than requested; slower only as far as a loaded machine explains
         assert 0.5 * RTF < factor < 1.1 * RTF, f"achieved {factor:.2f}x, requested {RTF}x"
 
-    @pytest.mark.ros
     def test_straight_metre_and_quarter_turn_end_near_ground_truth(self, topics, rospy_node, publisher):
         _set_pose(rospy_node, 3.0, 2.5, 0.0)
         wait_for(lambda: topics["truth"].get().pose.pose.position.x == 3.0, 10.0, what="robot at the start")
@@ -275,16 +264,15 @@ class TestSmallWorld:
         # at most one 50 ms step past the metre, 0.045 m to stop, 1 % odometry scale error
         assert 0.98 < moved < 1.08
         assert moved * 1.01 == pytest.approx(odom_distance(), abs=0.02), "odometry agrees with ground truth"
-        assert abs(_yaw(truth.orientation)) < math.radians(2)
+        assert abs(yaw_of(truth.orientation)) < math.radians(2)
 
-        yaw0 = _yaw(topics["odom"].get().pose.pose.orientation)
+        yaw0 = yaw_of(topics["odom"].get().pose.pose.orientation)
         _stepped_drive(rospy_node, publisher, topics, 0.0, 0.6,
-                       lambda: _wrap(_yaw(topics["odom"].get().pose.pose.orientation) - yaw0) >= math.pi / 2,
+                       lambda: angles.wrap(yaw_of(topics["odom"].get().pose.pose.orientation) - yaw0) >= math.pi / 2,
                        max_seconds=10.0)
-        turned = _wrap(_yaw(topics["truth"].get().pose.pose.orientation) - _yaw(truth.orientation))
+        turned = angles.wrap(yaw_of(topics["truth"].get().pose.pose.orientation) - yaw_of(truth.orientation))
         assert turned == pytest.approx(math.pi / 2, abs=math.radians(6))
 
-    @pytest.mark.ros
     def test_collision_stops_robot_sets_bumper_and_counts(self, topics, rospy_node, publisher):
         _set_pose(rospy_node, 4.5, 3.0, 0.0)  # east wall face at x = 5.95
         before = topics["collisions"].get().data
@@ -295,7 +283,6 @@ class TestSmallWorld:
         assert 5.95 - 0.1696 - 0.03 < x <= 5.95 - 0.1696 + 1e-6
         wait_for(lambda: topics["collisions"].get().data == before + 1, 20.0, what="collision counted")
 
-    @pytest.mark.ros
     def test_nan_cmd_vel_is_ignored_with_a_warning(self, small_world, topics, rospy_node, publisher):
         from geometry_msgs.msg import Twist
 
@@ -317,7 +304,6 @@ class TestSmallWorld:
 class TestApartment:
     """The shipped apartment with its two walking people and fake localization."""
 
-    @pytest.mark.ros
     def test_kinect_topics_are_honest(self, apartment_topics):
         depth = apartment_topics["depth"].get()
         assert (depth.encoding, depth.width, depth.height, depth.step) == ("32FC1", 160, 120, 640)
@@ -333,7 +319,6 @@ class TestApartment:
         assert [f.name for f in cloud.fields] == ["x", "y", "z", "rgb"] and cloud.point_step == 16
         assert cloud.header.frame_id == "camera_rgb_optical_frame" and (cloud.width, cloud.height) == (160, 120)
 
-    @pytest.mark.ros
     def test_tilt_moves_the_camera_frame_in_tf(self, apartment_topics, rospy_node, tf_buffer, publisher):
         import rospy
         from std_msgs.msg import Float64
@@ -354,7 +339,6 @@ class TestApartment:
         wait_for(lambda: abs(apartment_topics["tilt"].get().data) < 0.1, 60.0, what="tilt back at 0")
         wait_for(lambda: apartment_topics["tilt_status"].get().data == 0, 30.0, what="tilt motor stopped")
 
-    @pytest.mark.ros
     def test_people_walk_their_paths(self, apartment_topics):
         first = {p.id: (p.pose.position.x, p.pose.position.y) for p in apartment_topics["people"].get().people}
         assert set(first) == {"alice", "bob"}
@@ -368,7 +352,6 @@ class TestApartment:
         bob = later["bob"].pose.position
         assert bob.y == pytest.approx(6.15, abs=1e-6) and 0.6 - 1e-6 <= bob.x <= 6.6 + 1e-6
 
-    @pytest.mark.ros
     def test_pause_and_step(self, apartment_topics, rospy_node):
         from std_srvs.srv import Empty
 
@@ -389,7 +372,6 @@ class TestApartment:
             rospy_node.ServiceProxy("/florence_sim/unpause", Empty)()
         wait_for(lambda: _sim_now(apartment_topics) > res.sim_time + 0.5, 30.0, what="clock running again")
 
-    @pytest.mark.ros
     def test_person_services(self, apartment_topics, rospy_node):
         from florence_sim.srv import RemovePerson, SetPerson
 
@@ -406,7 +388,6 @@ class TestApartment:
                  what="carol gone")
         assert not rospy_node.ServiceProxy("/florence_sim/remove_person", RemovePerson)("nobody").success
 
-    @pytest.mark.ros
     def test_fake_localization_puts_the_robot_at_ground_truth(self, apartment_topics, tf_buffer):
         import rospy
 
@@ -418,7 +399,6 @@ class TestApartment:
         wait_for(lambda: error() < 0.02, 30.0, what="map->base_footprint = ground truth")
 
 
-@pytest.mark.ros
 def test_malformed_world_stops_the_node_with_file_and_field(tmp_path):
     """A private master: the node's private parameters must not leak into other tests."""
     from florence_common.processes import ManagedProcess, RosMaster

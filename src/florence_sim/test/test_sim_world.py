@@ -14,6 +14,8 @@ from florence_sim.world import ROOMS, WorldError, load_world
 from florence_common.maps import maps_dir
 from florence_sim import mapgen
 
+pytestmark = pytest.mark.unit
+
 MAPS = maps_dir()
 APARTMENT = MAPS / "apartment" / "apartment.world.yaml"
 TYPES = MAPS / "florence_types.yaml"
@@ -210,9 +212,34 @@ def test_the_simulator_launch_file_defaults_to_the_shipped_world():
 
     launch = pathlib.Path(rospkg.RosPack().get_path("florence_sim")) / "launch" / "florence_sim.launch"
     args = {a.get("name"): a.get("default") for a in ET.parse(launch).getroot().iter("arg")}
-    assert "../" not in args["world"] + args["people"]
-    assert pathlib.Path(resolve_args(args["world"])) == APARTMENT
-    assert pathlib.Path(resolve_args(args["people"])) == MAPS / "apartment" / "people.yaml"
+    for name, shipped in (("world", APARTMENT), ("people", MAPS / "apartment" / "people.yaml")):
+        assert args[name].startswith("$(env FLORENCE_MAPS)/") and "../" not in args[name], args[name]
+        resolved = pathlib.Path(resolve_args(args[name]))
+        assert resolved == shipped and resolved.is_file(), resolved
+
+
+def test_simulator_from_files_builds_the_robot_of_its_description(apartment, tmp_path):
+    """One factory for the node, the offline runs and the benchmarks: world, people, robot, base, start."""
+    from florence_sim.robot_model import RobotModel
+    from florence_sim.sim import SimConfig, Simulator
+
+    robot = RobotModel.from_xacro()
+    people = MAPS / "apartment" / "people.yaml"
+    sim = Simulator.from_files(APARTMENT, people, robot, SimConfig(seed=3), (1.2, 3.0, 0.3), gyro_scale_error=0.05)
+    assert sim.world.path == str(APARTMENT) and set(sim.people) == {"alice", "bob"}
+    assert (sim.base.x, sim.base.y, sim.base.yaw) == (1.2, 3.0, 0.3) and sim.cfg.seed == 3
+    cfg = sim.base.cfg
+    assert (cfg.radius, cfg.wheel_separation) == pytest.approx((0.1696, 0.26))
+    assert cfg.height == pytest.approx(robot.height()) and cfg.gyro_scale_error == 0.05
+    assert sim.laser.mount[2, 3] == pytest.approx(LASER_HEIGHT, abs=1e-3)
+    for nobody in (None, ""):
+        assert Simulator.from_files(APARTMENT, nobody, robot, start=(1.0, 2.5, 0.0)).people == {}
+    with pytest.raises(ValueError, match="puts the robot into"):
+        Simulator.from_files(APARTMENT, None, robot, start=(0.0, 0.0, 0.0))
+    with pytest.raises(TypeError):
+        Simulator.from_files(APARTMENT, None, robot, no_such_field=1.0)
+    with pytest.raises(WorldError, match=r"missing\.world\.yaml"):
+        Simulator.from_files(tmp_path / "missing.world.yaml", None, robot)
 
 
 def test_generate_map_command_writes_the_files_and_reports_bad_worlds(tmp_path, capsys):

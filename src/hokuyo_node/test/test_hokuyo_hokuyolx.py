@@ -12,8 +12,11 @@ import threading
 import time
 from itertools import islice
 
+import pytest
 from hokuyo_node.urg_emulator import STEPS, UrgEmulator
 from hokuyolx import HokuyoLX
+
+pytestmark = pytest.mark.protocol
 
 PATTERN = [3 if i % 41 == 0 else 250 + 5 * i for i in range(STEPS)]  # [mm]
 

@@ -11,7 +11,8 @@ from hokuyo_node.urg_emulator import STEPS, UrgEmulator
 from florence_common.processes import ManagedProcess, pid_alive, wait_for
 from florence_common.pty_device import PtyDevice
 
-pytestmark = pytest.mark.ros
+pytestmark = pytest.mark.protocol
+
 
 NODE = Path(__file__).resolve().parents[1] / "nodes" / "hokuyo_node"
 NS = "/hokuyo_test"

@@ -10,6 +10,8 @@ from hokuyo_node.urg_emulator import UrgEmulator
 from hokuyo_node import scip
 from hokuyo_node import scip_spec as spec
 
+pytestmark = pytest.mark.unit
+
 URG = scip.Geometry.from_info({k: str(v) for k, v in spec.URG_04LX.items()})
 
 

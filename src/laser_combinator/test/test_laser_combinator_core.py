@@ -7,6 +7,8 @@ import numpy as np
 import pytest
 from laser_combinator.combine import Grid, Scan, combine, crop_grid, nearest_per_bin
 
+pytestmark = pytest.mark.unit
+
 INC = 2 * math.pi / 1024  # [rad] URG-04LX step
 N = 683
 

@@ -11,6 +11,7 @@ from florence_common.processes import ManagedProcess, roslaunch, stop_all, wait_
 
 pytestmark = pytest.mark.ros
 
+
 INC = 2 * math.pi / 1024  # [rad] URG-04LX step
 N = 511  # beams within +-1.570 rad
 NEAR_LASER_ANGLE = 0.5  # [rad] in base_laser_link, where the laser sees 0.6 m

@@ -9,7 +9,8 @@ import pytest
 
 from florence_common.processes import roslaunch, rosrun, stop_all, wait_for
 
-pytestmark = pytest.mark.ros
+pytestmark = pytest.mark.scenario
+
 
 # The robot at (1.3, 4.3) facing east: the dining table (x 2.8..4.0, y 3.4..4.2, top 0.75 m)
 # and chair_west (seat 0.45 m at x 2.45, y 3.8) lie ahead and to the robot's RIGHT only.

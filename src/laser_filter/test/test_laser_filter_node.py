@@ -10,6 +10,7 @@ from florence_common.processes import roslaunch, stop_all, wait_for
 pytestmark = pytest.mark.ros
 
 
+
 def scan(ranges, intensities=(), range_max=5.6):
     from sensor_msgs.msg import LaserScan
 

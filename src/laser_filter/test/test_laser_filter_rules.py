@@ -7,6 +7,8 @@ import numpy as np
 import pytest
 from laser_filter.filter import filter_ranges, limits_problem
 
+pytestmark = pytest.mark.unit
+
 RMIN, RMAX, RADIUS = 0.02, 5.6, 0.18
 CLEAR = np.float32(RMAX - 1e-4)
 

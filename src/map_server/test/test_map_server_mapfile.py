@@ -15,6 +15,8 @@ from map_server.mapfile import (
 )
 from PIL import Image
 
+pytestmark = pytest.mark.unit
+
 GOOD = ("image: m.pgm\nresolution: 0.05\norigin: [-1.0, 2.0, 0.5]\nnegate: 0\n"
         "occupied_thresh: 0.65\nfree_thresh: 0.196\n")
 

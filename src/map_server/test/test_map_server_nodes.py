@@ -13,6 +13,7 @@ from florence_common.processes import ManagedProcess, wait_for
 
 pytestmark = pytest.mark.ros
 
+
 YAML = ("image: room.png\nresolution: 0.1\norigin: [-2.0, -1.0, 0.3]\nnegate: 0\n"
         "occupied_thresh: 0.65\nfree_thresh: 0.196\n")
 

@@ -11,6 +11,8 @@ from std_msgs.msg import Header
 
 from florence_common_ros.convert import depth_image_metres
 
+pytestmark = pytest.mark.unit
+
 
 def image(array, encoding, pad=0, bigendian=False):
     arr = array.astype(array.dtype.newbyteorder(">" if bigendian else "<"))

@@ -11,6 +11,7 @@ from florence_common.processes import ManagedProcess, roslaunch, stop_all, wait_
 
 pytestmark = pytest.mark.ros
 
+
 K = [525.0, 0.0, 319.5, 0.0, 525.0, 239.5, 0.0, 0.0, 1.0]
 W, H = 640, 480
 BAND = ["_min_height:=0.05", "_max_height:=1.0", "_range_min:=0.45", "_range_max:=4.0"]

@@ -11,6 +11,8 @@ from pointcloud_to_laserscan.projection import (
     points_to_ranges,
 )
 
+pytestmark = pytest.mark.unit
+
 K = [525.0, 0.0, 319.5, 0.0, 525.0, 239.5, 0.0, 0.0, 1.0]  # Kinect depth intrinsics
 W, H = 640, 480
 CAM_HEIGHT = 0.45  # [m] optical centre above the floor

@@ -37,11 +37,13 @@ def origin(joint):
     return [float(v) for v in o.get("xyz").split()], [float(v) for v in o.get("rpy").split()]
 
 
+@pytest.mark.unit
 def test_every_required_frame_is_a_link(urdf):
     links = {link.get("name") for link in urdf.iter("link")}
     assert sorted(set(REQUIRED) - links) == []
 
 
+@pytest.mark.unit
 def test_links_form_one_tree_rooted_at_base_footprint(urdf):
     links = {link.get("name") for link in urdf.iter("link")}
     children = [j.find("child").get("link") for j in urdf.iter("joint")]
@@ -50,6 +52,7 @@ def test_links_form_one_tree_rooted_at_base_footprint(urdf):
     assert roots == {"base_footprint"}
 
 
+@pytest.mark.unit
 def test_standoffs_are_10_25_50_cm(urdf):
     j = joints(urdf)
     heights = [origin(j[f"plate_{n}_joint"])[0][2] for n in (1, 2, 3)]
@@ -60,6 +63,7 @@ def test_standoffs_are_10_25_50_cm(urdf):
             assert float(link.find("visual/geometry/cylinder").get("length")) == pytest.approx(length)
 
 
+@pytest.mark.unit
 def test_inverted_laser_joint_is_the_seeds(urdf):
     j = joints(urdf)
     laser = j["base_laser_joint"]
@@ -72,12 +76,14 @@ def test_inverted_laser_joint_is_the_seeds(urdf):
     assert xyz == pytest.approx([0.0, 0.0, 0.035])
 
 
+@pytest.mark.unit
 def test_every_link_with_geometry_has_visual_and_collision(urdf):
     for link in urdf.iter("link"):
         if link.find("visual") is not None:
             assert link.find("collision") is not None, link.get("name")
 
 
+@pytest.mark.unit
 def test_dimensions_file_drives_the_model(tmp_path):
     """Changing the YAML changes the URDF: nothing is hard-coded in the xacro."""
     dims = yaml.safe_load((PKG / "config" / "robot_dimensions.yaml").read_text())
@@ -88,6 +94,7 @@ def test_dimensions_file_drives_the_model(tmp_path):
     assert origin(joints(urdf)["plate_2_joint"])[0][2] == pytest.approx(0.30)
 
 
+@pytest.mark.unit
 def test_missing_dimensions_file_is_a_clear_error(tmp_path):
     import xacro
 
@@ -114,9 +121,9 @@ def test_tf_base_link_to_laser_is_offset_and_upside_down(launch, tf_buffer, rosp
     # Rolled by pi: quaternion (1, 0, 0, 0) up to sign; the laser's z axis points at the floor.
     q = np.array([t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w])
     assert abs(q[0]) == pytest.approx(1.0, abs=1e-6)
-    from tf.transformations import quaternion_matrix
+    from florence_common.pose import transform_matrix
 
-    rot = quaternion_matrix(q)[:3, :3]
+    rot = transform_matrix((0, 0, 0), q)[:3, :3]
     assert rot @ [0, 0, 1] == pytest.approx([0, 0, -1], abs=1e-6)
     assert rot @ [0, 1, 0] == pytest.approx([0, -1, 0], abs=1e-6)  # the laser's left is the robot's right
     # The optical window hangs 0.035 m below the laser body.
@@ -141,9 +148,9 @@ def test_kinect_tilt_joint_state_moves_the_camera(launch, tf_buffer, rospy_node)
         msg.header.stamp = rospy.Time.now()
         pub.publish(msg)
         t = tf_buffer.lookup_transform("base_link", "camera_depth_optical_frame", rospy.Time(0)).transform
-        from tf.transformations import quaternion_matrix
+        from florence_common.pose import transform_matrix
 
-        axis = quaternion_matrix([t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w])[:3, :3] @ [0, 0, 1]
+        axis = transform_matrix((0, 0, 0), (t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w))[:3, :3] @ [0, 0, 1]
         pitch_up = math.atan2(axis[2], axis[0])
         return pitch_up if abs(pitch_up - tilt) < 1e-3 else None
 

@@ -7,7 +7,8 @@ import pytest
 
 from florence_common.processes import wait_for
 
-pytestmark = pytest.mark.ros
+pytestmark = pytest.mark.protocol
+
 
 
 def test_emulated_drivers_launch(launch, rospy_node, tmp_path):

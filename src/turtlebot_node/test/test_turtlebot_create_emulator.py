@@ -5,6 +5,8 @@ from turtlebot_node.create_emulator import CreateEmulator
 
 from turtlebot_node import oi_spec as oi
 
+pytestmark = pytest.mark.unit
+
 
 def started(mode_opcode=oi.FULL):
     emulator = CreateEmulator()

@@ -9,6 +9,8 @@ from turtlebot_node.create_emulator import CreateEmulator
 from turtlebot_node import create_oi
 from turtlebot_node import oi_spec as oi
 
+pytestmark = pytest.mark.unit
+
 
 @pytest.mark.parametrize(("encoded", "expected"), [
     (create_oi.command_start(), [128]),

@@ -12,7 +12,8 @@ from florence_common.processes import ManagedProcess, pid_alive, stop_all, wait_
 from florence_common.pty_device import PtyDevice
 from turtlebot_node import oi_spec as oi
 
-pytestmark = pytest.mark.ros
+pytestmark = pytest.mark.protocol
+
 
 NODE = Path(__file__).resolve().parents[1] / "scripts" / "turtlebot_node.py"
 NS = "/tb_test"

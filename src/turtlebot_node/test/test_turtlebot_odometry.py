@@ -9,6 +9,8 @@ from turtlebot_node.odometry import Gyro, Odometry
 from turtlebot_node import create_oi
 from turtlebot_node import oi_spec as oi
 
+pytestmark = pytest.mark.unit
+
 STILL = {"distance": 0, "angle": 0, "requested_right_velocity": 0, "requested_left_velocity": 0,
          "requested_velocity": 0}
 

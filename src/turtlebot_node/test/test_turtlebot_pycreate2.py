@@ -8,11 +8,14 @@ packet 100, which only the Create 2 has, so sensors are not part of this test.
 import gc
 
 import pycreate2
+import pytest
 from turtlebot_node.create_emulator import CreateEmulator
 
 from florence_common.processes import wait_for
 from florence_common.pty_device import PtyDevice
 from turtlebot_node import oi_spec as oi
+
+pytestmark = pytest.mark.protocol
 
 
 def test_pycreate2_drives_our_emulator():

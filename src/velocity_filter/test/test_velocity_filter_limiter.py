@@ -6,6 +6,8 @@ import math
 import pytest
 from velocity_filter.limiter import Limits, VelocityFilter, step_towards
 
+pytestmark = pytest.mark.unit
+
 RATE = 50.0
 STEP = 1.0 / RATE  # [m/s] max change per period at 1 m/s^2
 

@@ -12,6 +12,7 @@ from florence_common.processes import roslaunch, stop_all, wait_for
 
 pytestmark = pytest.mark.ros
 
+
 RATE, TIMEOUT, ACC, VMAX, WMAX = 50.0, 1.0, 1.0, 0.5, 2.0  # config/velocity_filter.yaml
 
 

@@ -71,4 +71,3 @@ NODE = ParamTable(
     Param("tf_broadcast", bool, True, "publish map -> odom"),
 )
 
-PARAMS = FILTER + NODE

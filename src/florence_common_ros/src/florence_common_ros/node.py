@@ -10,9 +10,9 @@ and ``main`` is ``run(VelocityFilterNode, "velocity_filter_node")``. :func:`run`
 1. ``rospy.init_node(name)``;
 2. builds the node class (its constructor reads every parameter, through
    :func:`read_params`, creates publishers before subscribers and timers);
-3. a bad parameter (``ValueError``/``TypeError``, which :class:`ParamError` is) is logged
-   fatal, naming the parameter, and the process exits 1; any other start-up failure is
-   logged fatal with its cause and exits 1 too;
+3. a bad parameter (``ValueError``, which :class:`ParamError` is) is logged fatal, naming the
+   parameter, and the process exits 1; any other start-up failure is logged fatal with its
+   traceback and exits 1 too;
 4. registers the node's ``shutdown()`` (when it has one) with ``rospy.on_shutdown``:
    nodes that command motion publish a zero command there (:func:`publish_stop`);
 5. spins until shutdown.
@@ -24,14 +24,13 @@ import traceback
 
 import rospy
 
-from florence_common.params import ParamError
 
-
-def read_params(table):
+def read_params(table, namespace=None):
     """Values of ``table`` (florence_common.params.ParamTable) from the parameter server, its
-    names resolved with the table's prefix (the node's private namespace by default). Raises
-    ParamError."""
-    return table.read(lambda name, default: rospy.get_param(table.prefix + name, default))
+    names resolved below ``namespace`` (default: the table's prefix, the node's private namespace
+    unless the table says otherwise), e.g. "~NavfnROS/". Raises ParamError."""
+    prefix = table.prefix if namespace is None else namespace
+    return table.read(lambda name, default: rospy.get_param(prefix + name, default))
 
 
 def publish_stop(publisher, wait=0.05):
@@ -51,7 +50,7 @@ def build(node_class, name, *args, **kwargs):
     cannot start. Returns the node."""
     try:
         node = node_class(*args, **kwargs)
-    except (ParamError, ValueError, TypeError) as exc:
+    except ValueError as exc:  # ParamError is one
         rospy.logfatal("%s: bad parameter: %s", name, exc)
         sys.exit(1)
     except Exception as exc:  # noqa: BLE001 - any start-up failure ends the node with its cause
