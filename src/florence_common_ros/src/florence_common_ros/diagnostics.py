@@ -7,7 +7,9 @@
     self.scan_rate.tick()                                   # once per scan
 
 The updater publishes every ``~diagnostic_period`` [s] (diagnostic_updater's parameter,
-1.0 by default); a timer of ``tick`` [s] drives it.
+1.0 by default); a timer of ``tick`` [s] drives it. ``tick=None`` makes no timer: the node
+calls :meth:`force_update` itself (florence_sim does, from its loop, because a ROS-time timer
+under simulated time wakes at every /clock message).
 """
 
 import diagnostic_updater
@@ -23,7 +25,7 @@ class Diagnostics:
     def __init__(self, hardware_id, tick=0.1):
         self.updater = diagnostic_updater.Updater()
         self.updater.setHardwareID(hardware_id)
-        self._timer = rospy.Timer(rospy.Duration(tick), lambda _event: self.updater.update())
+        self._timer = None if tick is None else rospy.Timer(rospy.Duration(tick), lambda _event: self.updater.update())
 
     def add(self, name, task):
         """``task(stat)`` fills a DiagnosticStatusWrapper (summary, add) and returns it."""
@@ -40,5 +42,10 @@ class Diagnostics:
     def force_update(self):
         self.updater.force_update()
 
+    def has_subscribers(self):
+        """Whether anybody listens on /diagnostics (building the statuses costs CPU)."""
+        return self.updater.publisher.get_num_connections() > 0
+
     def shutdown(self):
-        self._timer.shutdown()
+        if self._timer is not None:
+            self._timer.shutdown()

@@ -82,10 +82,11 @@ PARAMS = ParamTable(
           unit="s", gt=0),
     Param("max_linear_acc", float, _BASE.max_linear_acc, "the Create's wheel ramp", unit="m/s^2", gt=0),
     Param("max_angular_acc", float, _BASE.max_angular_acc, "the Create's turn ramp", unit="rad/s^2", gt=0),
-    Param("odom_linear_scale_error", float, _BASE.odom_linear_scale_error, "odometry distance = true * (1 + error)"),
+    Param("odom_linear_scale_error", float, _BASE.odom_linear_scale_error, "odometry distance = true * (1 + error)",
+          gt=-1),
     Param("odom_linear_noise", float, _BASE.odom_linear_noise, "random walk of the odometry distance",
           unit="m/sqrt(m)", ge=0),
-    Param("gyro_scale_error", float, _BASE.gyro_scale_error, "measured rate = true * (1 + error)"),
+    Param("gyro_scale_error", float, _BASE.gyro_scale_error, "measured rate = true * (1 + error)", gt=-1),
     Param("gyro_noise", float, _BASE.gyro_noise, "random walk of the gyro heading", unit="rad/sqrt(s)", ge=0),
     Param("gyro_bias", float, _BASE.gyro_bias, "constant gyro drift", unit="rad/s"),
 )
@@ -150,8 +151,7 @@ class SimNode:
         # published from the loop when the core's diagnostics rate (1 Hz simulated) is due, not by the
         # helper's timer: a rospy.Timer on simulated time wakes at every /clock message (100 a simulated
         # second), which cost the unthrottled node 0.01-0.04 CPU s per simulated s (bench/sim.py)
-        self.diag = Diagnostics("florence_sim")
-        self.diag.shutdown()
+        self.diag = Diagnostics("florence_sim", tick=None)
         self.diag.add("Base (simulated)", self._diag_base)
         self.diag.add("Hokuyo (simulated)", self._diag_laser)
         self.diag.add("Simulation", self._diag_sim)
@@ -345,7 +345,7 @@ class SimNode:
         if "people" in due:
             send(self.pub_people, lambda: m.people(stamp))
             send(self.pub_markers, lambda: m.markers(stamp))
-        if "diagnostics" in due and self.diag.updater.publisher.get_num_connections():
+        if "diagnostics" in due and self.diag.has_subscribers():
             self.diag.force_update()
 
     def _publish_camera(self, stamp):
