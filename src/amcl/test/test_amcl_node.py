@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from map_server.mapfile import GridMap, save_map
 
+from florence_common import angles
 from florence_common.processes import ManagedProcess, wait_for
 
 pytestmark = pytest.mark.ros
@@ -141,7 +142,7 @@ def test_amcl_tracks_resets_and_relocalizes(setup, tf_buffer):
         with robot.lock:
             true = robot.true.copy()
         return math.hypot(p.position.x - true[0], p.position.y - true[1]), abs(
-            (yaw - true[2] + math.pi) % (2 * math.pi) - math.pi)
+            angles.diff(yaw, true[2]))
 
     def converged(tol=0.1, yaw_tol=0.1):
         e = error()

@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
+from florence_common.maps import map_file
 from florence_common.processes import ManagedProcess, wait_for
-from florence_harness import workspace
 
 pytestmark = pytest.mark.scenario
 
@@ -23,7 +23,8 @@ def amcl_in_sim(rospy_node, ros_master, launch, tf_buffer, tmp_path):
 
     master = rosgraph.Master("/pytest")
     had_sim_time = master.hasParam("/use_sim_time")
-    map_yaml = str(workspace.root() / "maps" / "apartment" / "apartment.yaml")
+    map_yaml = str(map_file("apartment", "apartment.yaml"))
+    tf_buffer.clear()  # transforms of an earlier test's simulation, at later simulated times, must not mix in
     nobody = tmp_path / "nobody.yaml"
     nobody.write_text("people: []\n")
     sim = launch("florence_sim", "florence_sim.launch", f"people:={nobody}", "real_time_factor:=2.0", "seed:=3",

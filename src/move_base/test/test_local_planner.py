@@ -12,6 +12,8 @@ from move_base.local_planner import NO_VALID_TRAJECTORY, LocalPlanner, clip_plan
 from move_base.trajectory_planner import PlannerParams
 from scipy import ndimage
 
+from florence_common import angles
+
 pytestmark = pytest.mark.unit
 
 # The seed's files (turtlebot_control/config): footprint padded by footprint_padding, and
@@ -220,7 +222,7 @@ def _drive(lp, cm, start, plan, seconds, acc=(0.5, 0.5, 3.0)):
         c, s = math.cos(yaw), math.sin(yaw)
         x += (v[0] * c - v[1] * s) * dt
         y += (v[0] * s + v[1] * c) * dt
-        yaw = math.atan2(math.sin(yaw + v[2] * dt), math.cos(yaw + v[2] * dt))
+        yaw = angles.wrap(yaw + v[2] * dt)
         poses.append((x, y, yaw))
     return np.array(poses)
 
@@ -239,7 +241,7 @@ def test_corridor_drive_reaches_a_goal_three_metres_away():
     assert lp.is_goal_reached()
     x, y, yaw = poses[-1]
     assert math.hypot(x - 5.0, y - 5.0) <= 0.25 + 0.05
-    assert abs(math.atan2(math.sin(yaw - goal_yaw), math.cos(yaw - goal_yaw))) <= 0.3
+    assert abs(angles.diff(yaw, goal_yaw)) <= 0.3
     # never closer to a wall than the footprint's circumscribed radius allows
     assert np.all(poses[:, 1] - CIRCUMSCRIBED > 4.1) and np.all(poses[:, 1] + CIRCUMSCRIBED < 6.0)
     assert np.all(np.diff(poses[:, 0]) > -0.05)  # no backing up in an open corridor
@@ -384,7 +386,7 @@ def _corridor_approach_seconds(variants, goal_yaw, xy_slack):
         assert lp.is_goal_reached(), name
         x, y, yaw = poses[-1]
         assert math.hypot(x - 5.0, y - 5.0) <= 0.25 + xy_slack
-        assert abs(math.atan2(math.sin(yaw - goal_yaw), math.cos(yaw - goal_yaw))) <= 0.3
+        assert abs(angles.diff(yaw, goal_yaw)) <= 0.3
         assert np.all(poses[:, 1] - CIRCUMSCRIBED > 4.1) and np.all(poses[:, 1] + CIRCUMSCRIBED < 6.0)
         seconds[name] = (len(poses) - 1) * lp.params.sim_period
     print(seconds)

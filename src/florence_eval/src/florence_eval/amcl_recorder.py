@@ -4,7 +4,6 @@ Runs inside a rospy node (the caller initialised it) against a private master wh
 florence_sim, map_server and amcl run. Times are simulated time.
 """
 
-import math
 import threading
 
 import numpy as np
@@ -13,11 +12,8 @@ from geometry_msgs.msg import PoseWithCovarianceStamped, Twist
 from nav_msgs.msg import Odometry
 from std_msgs.msg import Float64
 
+from florence_common_ros.convert import yaw_of
 from florence_eval.tour import follow
-
-
-def _yaw(q):
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
 
 
 class TourRecorder:
@@ -40,13 +36,13 @@ class TourRecorder:
         p = msg.pose.pose
         with self.lock:
             self.truth_t.append(msg.header.stamp.to_sec())
-            self.truth.append((p.position.x, p.position.y, _yaw(p.orientation)))
+            self.truth.append((p.position.x, p.position.y, yaw_of(p.orientation)))
 
     def _on_pose(self, msg):
         p = msg.pose.pose
         with self.lock:
             self.est_t.append(msg.header.stamp.to_sec())
-            self.est.append((p.position.x, p.position.y, _yaw(p.orientation)))
+            self.est.append((p.position.x, p.position.y, yaw_of(p.orientation)))
             self.cov.append(list(msg.pose.covariance))
 
     def _on_duration(self, msg):
