@@ -23,6 +23,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from florence_eval.metrics import cpu_seconds
 from hokuyo_node.urg_emulator import STEPS, UrgEmulator
 from turtlebot_node.create_emulator import CreateEmulator
 
@@ -31,7 +32,6 @@ from florence_common.pty_device import PtyDevice
 from hokuyo_node import scip
 
 RESULTS = Path(__file__).resolve().parent / "results" / "drivers.json"
-CLOCK_TICKS = os.sysconf("SC_CLK_TCK")
 
 
 def executable(package, relative):
@@ -63,12 +63,6 @@ def bench_decode(repeats=3000):
     return {"frame_bytes": len(raw), "ranges": int(values.size), "repeats": repeats,
             "median_ms": 1000 * statistics.median(times), "mean_ms": 1000 * statistics.fmean(times),
             "p99_ms": 1000 * sorted(times)[int(0.99 * repeats)], "target_ms": 1.0}
-
-
-def cpu_seconds(pid):
-    with open(f"/proc/{pid}/stat") as f:
-        fields = f.read().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / CLOCK_TICKS  # utime + stime
 
 
 def bench_node(master, name, argv, core, ready, count, topics, seconds=10.0):

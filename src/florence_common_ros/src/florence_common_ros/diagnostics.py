@@ -6,11 +6,15 @@
     ...
     self.scan_rate.tick()                                   # once per scan
 
-The updater publishes every ``~diagnostic_period`` [s] (diagnostic_updater's parameter,
-1.0 by default); a timer of ``tick`` [s] drives it. ``tick=None`` makes no timer: the node
-calls :meth:`force_update` itself (florence_sim does, from its loop, because a ROS-time timer
-under simulated time wakes at every /clock message).
+The updater publishes every ``~diagnostic_period`` [s] of ROS time (diagnostic_updater's
+parameter, 1.0 by default). A daemon thread calls it every ``tick`` [s] of wall time: not a
+rospy.Timer, which under simulated time wakes at every /clock message (100 a simulated second)
+in every node that has one. ``tick=None`` makes no thread: the node calls :meth:`force_update`
+itself (florence_sim does, from its loop).
 """
+
+import threading
+import time
 
 import diagnostic_updater
 import rospy
@@ -20,12 +24,23 @@ OK, WARN, ERROR, STALE = DiagnosticStatus.OK, DiagnosticStatus.WARN, DiagnosticS
 
 
 class Diagnostics:
-    """A diagnostic_updater.Updater with a hardware id, driven by a timer."""
+    """A diagnostic_updater.Updater with a hardware id, driven by a wall-clock thread."""
 
-    def __init__(self, hardware_id, tick=0.1):
+    def __init__(self, hardware_id, tick=0.25):
         self.updater = diagnostic_updater.Updater()
         self.updater.setHardwareID(hardware_id)
-        self._timer = None if tick is None else rospy.Timer(rospy.Duration(tick), lambda _event: self.updater.update())
+        self._stop = threading.Event()
+        self._thread = None
+        if tick is not None:
+            self._thread = threading.Thread(target=self._run, args=(float(tick),), name="diagnostics", daemon=True)
+            self._thread.start()
+
+    def _run(self, tick):
+        while not self._stop.wait(tick) and not rospy.is_shutdown():
+            try:
+                self.updater.update()
+            except rospy.ROSException:  # shutting down, or simulated time not started yet
+                time.sleep(tick)
 
     def add(self, name, task):
         """``task(stat)`` fills a DiagnosticStatusWrapper (summary, add) and returns it."""
@@ -47,5 +62,4 @@ class Diagnostics:
         return self.updater.publisher.get_num_connections() > 0
 
     def shutdown(self):
-        if self._timer is not None:
-            self._timer.shutdown()
+        self._stop.set()
