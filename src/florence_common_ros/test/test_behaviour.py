@@ -23,11 +23,13 @@ def toy(rospy_node):
             super().__init__("toy_behaviour", TestAction, rate=50.0)
             self.halts = 0
             self.cycles = 0
+            self.goals_begun = 0
             self.halt_event = threading.Event()
             self.start()
 
         def begin(self, goal):
             self.cycles = 0
+            self.goals_begun += 1
             return "goal 1 is refused" if goal.goal == 1 else None
 
         def step(self, goal):
@@ -83,11 +85,14 @@ def test_cancel_halts_at_once_and_preempts(toy, rospy_node):
     from actionlib.msg import TestGoal
     from actionlib_msgs.msg import GoalStatus
 
-    server, client = toy
-    client.send_goal(TestGoal(goal=3))
     from florence_common.processes import wait_for
 
-    wait_for(lambda: server.cycles > 2, 10.0, what="the goal running")
+    server, client = toy
+    begun = server.goals_begun
+    client.send_goal(TestGoal(goal=3))
+    # cycles still holds the previous goal's count until begin() runs: wait for this goal's
+    # begin, then for its cycles (a cancel that overtakes the goal would make it RECALLED)
+    wait_for(lambda: server.goals_begun > begun and server.cycles > 2, 10.0, what="the goal running")
     server.halt_event.clear()
     client.cancel_goal()
     assert server.halt_event.wait(5.0)
