@@ -393,3 +393,55 @@ def test_laser_self_hits_see_the_standoffs_only_when_asked(robot):
     hits = np.abs(seeing.angles[(near > 0) & (near < 0.3)])
     assert len(hits) >= 2 and np.all((hits > 1.3) & (hits < 1.571)), np.degrees(hits)
     assert np.all(near[(near > 0) & (near < 0.3)] > 0.12)
+
+
+def test_height_scales_every_height_and_the_forward_reach():
+    default, tall = Person("a", x=1.0, y=0.0), Person("a", x=1.0, y=0.0, height=1.90)
+    assert max(c.z1 for c in tall.primitives()) == pytest.approx(1.90)  # the head's top
+    k = 1.90 / 1.72
+    for d, t in zip(default.primitives(), tall.primitives(), strict=True):
+        assert (t.z0, t.z1) == pytest.approx((d.z0 * k, d.z1 * k)) and t.radius == d.radius
+        assert (t.x, t.y) == pytest.approx((d.x, d.y))  # standing still: no forward offsets
+    sitting = Person("b", x=1.0, y=0.0, posture="sitting", height=1.55)
+    legs, torso, head = sitting.primitives()
+    k = 1.55 / 1.72
+    assert head.z1 == pytest.approx(1.32 * k) and torso.z0 == pytest.approx(0.50 * k)
+    assert legs.z1 == pytest.approx(0.50 * k) and legs.x == pytest.approx(1.0 + 0.15 * k)  # thighs forward
+    # walking: the legs swing SWING * height / 1.72 and a stride is as much longer
+    walkers = [Person("w", path=[(0.0, 0.0), (9.0, 0.0)], height=h) for h in (1.72, 2.0)]
+    swings = []
+    for p in walkers:
+        _walk(p, 0.6 * p.height / 1.72)  # a quarter stride at 0.5 m/s: the legs furthest apart
+        left, right = p.primitives()[:2]
+        swings.append(left.x - right.x)
+    assert swings == pytest.approx([2 * 0.12, 2 * 0.12 * 2.0 / 1.72], abs=1e-3)
+
+
+def test_build_scales_radii_and_widths_not_heights():
+    default, broad = Person("a", x=1.0, y=0.0), Person("a", x=1.0, y=0.0, build=1.2)
+    for d, b in zip(default.primitives(), broad.primitives(), strict=True):
+        assert b.radius == pytest.approx(1.2 * d.radius) and (b.z0, b.z1) == (d.z0, d.z1)
+        assert b.y == pytest.approx(1.2 * d.y)  # the legs further apart
+    torso = broad.primitives()[2]
+    assert torso.name == "person/a/torso" and torso.radius == pytest.approx(1.2 * 0.18)
+    seated = Person("b", posture="sitting", build=0.8).primitives()
+    assert [c.radius for c in seated] == pytest.approx([0.8 * 0.15, 0.8 * 0.17, 0.8 * 0.10])
+    # the footprint is 0.20 m until the torso is wider
+    assert [Person("c", build=b).radius for b in (0.8, 1.0, 1.1)] == [0.2, 0.2, 0.2]
+    assert Person("c", build=1.3).radius == pytest.approx(0.18 * 1.3)
+
+
+def test_a_broad_person_needs_more_room_on_a_path_and_keeps_further_from_the_robot():
+    from florence_sim.people import check_path
+    from florence_sim.world import WorldError
+
+    scene = Scene([Box("wall", 0.0, 1.05, 0.0, 10.0, 0.1, 0.0, 2.4)])  # face at y = 1.0
+    path = [(0.0, 0.78), (3.0, 0.78)]  # 0.22 m from the wall
+    check_path(Person("a", path=path), scene)
+    check_path(Person("a", path=path, build=1.2), scene)  # torso 0.216 m
+    with pytest.raises(WorldError, match=r"person b: path segment 0 .*'wall'.*needs 0\.234 m"):
+        check_path(Person("b", path=path, build=1.3), scene)
+    p = Person("b", path=[(0.0, 0.0), (4.0, 0.0)], speed=1.0, mode="once", build=1.3)
+    for _ in range(400):
+        p.step(DT, keep_clear=(2.0, 0.0, 0.17))
+    assert p.x == pytest.approx(2.0 - 0.17 - 0.18 * 1.3 - 0.15, abs=0.02)

@@ -193,6 +193,7 @@ def test_shipped_people_are_valid(apartment):
     people = load_people(MAPS / "apartment" / "people.yaml", apartment.scene)
     assert len(people) == 2 and all(p.walking for p in people)
     assert math.isclose(people[0].speed, 0.5)
+    assert len({p.height for p in people}) == 2 and len({p.build for p in people}) == 2  # two different bodies
 
 
 def test_florence_locator_config_matches_the_apartment(apartment):
@@ -255,3 +256,43 @@ def test_sitting_person_cannot_walk(apartment, tmp_path):
     path.write_text("people:\n  - {id: a, posture: sitting, path: [[1.2, 3.0], [1.2, 4.0]]}\n")
     with pytest.raises(WorldError, match=r"people\[0\]\.posture: a sitting person cannot walk"):
         load_people(path, apartment.scene)
+
+
+def test_people_file_takes_height_and_build(apartment, tmp_path):
+    path = tmp_path / "people.yaml"
+    path.write_text("people:\n  - {id: a, pose: [1.2, 3.0, 0], height: 1.9, build: 1.2}\n"
+                    "  - {id: b, pose: [1.2, 4.0, 0]}\n")
+    tall, plain = load_people(path, apartment.scene)
+    assert (tall.height, tall.build) == (1.9, 1.2) and (plain.height, plain.build) == (1.72, 1.0)
+    assert max(c.z1 for c in tall.primitives()) == pytest.approx(1.9)
+
+
+@pytest.mark.parametrize(("entry", "field", "problem"), [
+    ("height: 2.3", r"people\[0\]\.height", "must be <= 2.05"),
+    ("height: 1.2", r"people\[0\]\.height", "must be >= 1.4"),
+    ("height: tall", r"people\[0\]\.height", "expected a finite number"),
+    ("build: 1.5", r"people\[0\]\.build", "must be <= 1.35"),
+    ("build: 0.5", r"people\[0\]\.build", "must be >= 0.75"),
+    ("build: .nan", r"people\[0\]\.build", "expected a finite number"),
+    ("heigth: 1.9", r"people\[0\]\.heigth", "unknown key 'heigth' \\(did you mean 'height'\\?\\)"),
+    ("colour: [1, 0, 0]", r"people\[0\]\.colour", "unknown key 'colour'"),
+])
+def test_bad_height_build_and_unknown_keys_are_refused_naming_the_key(apartment, tmp_path, entry, field, problem):
+    path = tmp_path / "people.yaml"
+    path.write_text(f"people:\n  - {{id: a, pose: [1.2, 3.0, 0], {entry}}}\n")
+    with pytest.raises(WorldError, match=f"{path}: {field}: {problem}"):
+        load_people(path, apartment.scene)
+
+
+def test_set_person_specs_are_checked_the_same_way():
+    """The node's ~set_person service builds its person with person_from_spec, as a people file."""
+    from florence_sim.people import person_from_spec
+    from florence_sim.world import _Reader
+
+    with pytest.raises(WorldError, match=r"^set_person: spec\.heigth: unknown key 'heigth'"):
+        person_from_spec({"id": "v", "pose": [1, 2, 0], "heigth": 1.9}, _Reader("set_person"), "spec")
+    with pytest.raises(WorldError, match=r"^set_person: spec\.build: must be <= 1\.35"):
+        person_from_spec({"id": "v", "pose": [1, 2, 0], "build": 2}, _Reader("set_person"), "spec")
+    person = person_from_spec({"id": "v", "pose": [1, 2, 0], "height": 1.6, "build": 0.9}, _Reader("set_person"),
+                              "spec")
+    assert (person.height, person.build) == (1.6, 0.9)

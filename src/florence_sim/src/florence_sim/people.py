@@ -1,12 +1,19 @@
-"""Simulated people: legs at laser height, torso and head up to about 1.7 m (no ROS).
+"""Simulated people: legs at laser height, torso and head up to their height (no ROS).
 
 A person stands, sits, or walks along waypoints at a set speed (modes ``loop``,
 ``back_and_forth``, ``once``), pausing at each waypoint, and waits while the robot
 stands in the way. The body is made of
 cylinders, so the laser sees two legs and the Kinect the shirt colour. Paths
 are checked against the world: one through a wall or furniture is refused.
+
+People differ in ``height`` [m] (standing height, 1.40..2.05, default 1.72) and ``build``
+(dimensionless, 0.75..1.35, default 1): every height of the body (a seated person's too), the
+forward reach (leg swing, stride, a seated person's thighs) scale with height / 1.72, every
+radius and sideways offset (hip width) with build. The defaults give the body of
+:data:`STANDING` and :data:`SITTING` exactly.
 """
 
+import difflib
 import itertools
 import math
 from dataclasses import dataclass, field
@@ -18,12 +25,27 @@ from florence_sim.world import WorldError, _load_yaml, _Reader
 
 MODES = ("loop", "back_and_forth", "once")
 POSTURES = ("standing", "sitting")
-RADIUS = 0.20  # [m] footprint radius used for path checks and collisions
-HEIGHT = 1.72  # [m] standing height
+RADIUS = 0.20  # [m] footprint radius used for path checks and collisions (a wider torso: its radius)
+HEIGHT = 1.72  # [m] default standing height; the body tables below are for this height
+HEIGHT_RANGE = (1.40, 2.05)  # [m] allowed standing heights (people files, ~set_person)
+BUILD_RANGE = (0.75, 1.35)  # allowed builds: scale of every body radius and width
 SKIN = (0.87, 0.72, 0.60)
 TROUSERS = (0.20, 0.20, 0.25)
-STRIDE = 1.2  # [m] distance for one full leg cycle
+STRIDE = 1.2  # [m] distance for one full leg cycle (at the default height)
+SWING = 0.12  # [m] forward/backward leg swing amplitude while walking (at the default height)
 GAP = 0.15  # [m] a walking person keeps this gap to the robot (and waits if it is in the way)
+# Body parts of a person HEIGHT tall of build 1, in the person's frame (x forward, y left, z up):
+# name, x [m], y [m], radius [m], bottom z [m], top z [m], colour (None: the shirt's), swing sign
+# (a walking person's legs swing forward by +-SWING * sin(phase)).
+STANDING = (("leg_l", 0.0, 0.10, 0.065, 0.0, 0.85, TROUSERS, 1), ("leg_r", 0.0, -0.10, 0.065, 0.0, 0.85, TROUSERS, -1),
+            ("torso", 0.0, 0.0, 0.18, 0.85, 1.48, None, 0), ("head", 0.0, 0.0, 0.10, 1.50, HEIGHT, SKIN, 0))
+# thighs forward, torso and head lower
+SITTING = (("legs", 0.15, 0.0, 0.15, 0.0, 0.50, TROUSERS, 0), ("torso", 0.0, 0.0, 0.17, 0.50, 1.05, None, 0),
+           ("head", 0.0, 0.0, 0.10, 1.10, 1.32, SKIN, 0))
+BODIES = {"standing": STANDING, "sitting": SITTING}
+TORSO_RADIUS = 0.18  # [m] the standing torso's radius at build 1: the widest part of the body
+# keys of a person in a people file or a ~set_person spec
+SPEC_KEYS = ("id", "shirt", "posture", "path", "pose", "speed", "pause", "mode", "height", "build")
 
 
 @dataclass
@@ -40,6 +62,8 @@ class Person:
     speed: float = 0.5
     mode: str = "loop"
     pause: float = 0.0  # [s] standing still at each waypoint
+    height: float = HEIGHT  # [m] standing height (a seated person is scaled by height / HEIGHT too)
+    build: float = 1.0  # scale of every body radius and width
     # walking state
     target: int = 1
     direction: int = 1
@@ -57,6 +81,12 @@ class Person:
                 self.yaw = math.atan2(y1 - y0, x1 - x0)
 
     @property
+    def radius(self):
+        """Footprint radius [m] for path checks and keeping clear of the robot: RADIUS, or the
+        torso's radius when it is wider (build above 1.11)."""
+        return max(RADIUS, TORSO_RADIUS * self.build)
+
+    @property
     def walking(self):
         return len(self.path) > 1 and not self.finished
 
@@ -71,7 +101,7 @@ class Person:
             before = math.hypot(self.x - keep_clear[0], self.y - keep_clear[1])
             self.step(dt)
             after = math.hypot(self.x - keep_clear[0], self.y - keep_clear[1])
-            if after < keep_clear[2] + RADIUS + GAP and after < before:
+            if after < keep_clear[2] + self.radius + GAP and after < before:
                 (self.x, self.y, self.yaw, self.target, self.direction, self.wait, self.phase,
                  self.finished) = saved
                 self.vx = self.vy = 0.0
@@ -91,7 +121,7 @@ class Person:
                 self.x += dx / dist * move
                 self.y += dy / dist * move
             remaining -= move
-            self.phase += 2 * math.pi * move / STRIDE
+            self.phase += 2 * math.pi * move / (STRIDE * (self.height / HEIGHT))
             if move >= dist - 1e-12:
                 self._next_waypoint()
                 if self.pause > 0:
@@ -114,19 +144,16 @@ class Person:
             self.finished = True
 
     def primitives(self):
-        """Cylinders of the body at the current pose."""
+        """Cylinders of the body at the current pose: :data:`BODIES` scaled by height and build."""
         c, s = math.cos(self.yaw), math.sin(self.yaw)
-        if self.posture == "sitting":
-            # thighs forward, torso and head lower
-            parts = [(0.15, 0.0, 0.15, 0.0, 0.50, TROUSERS), (0.0, 0.0, 0.17, 0.50, 1.05, self.shirt),
-                     (0.0, 0.0, 0.10, 1.10, 1.32, SKIN)]
-        else:
-            swing = 0.12 * math.sin(self.phase) if self.walking else 0.0
-            parts = [(swing, 0.10, 0.065, 0.0, 0.85, TROUSERS), (-swing, -0.10, 0.065, 0.0, 0.85, TROUSERS),
-                     (0.0, 0.0, 0.18, 0.85, 1.48, self.shirt), (0.0, 0.0, 0.10, 1.50, HEIGHT, SKIN)]
-        names = ("leg_l", "leg_r", "torso", "head") if len(parts) == 4 else ("legs", "torso", "head")
-        return [Cylinder(f"person/{self.id}/{name}", self.x + c * ax - s * ay, self.y + s * ax + c * ay, r, z0, z1, col)
-                for name, (ax, ay, r, z0, z1, col) in zip(names, parts, strict=True)]
+        tall, wide = self.height / HEIGHT, self.build  # exactly 1.0 for the defaults
+        swing = SWING * tall * math.sin(self.phase) if self.walking else 0.0
+        out = []
+        for name, fx, fy, r, z0, z1, color, sign in BODIES[self.posture]:
+            ax, ay = fx * tall + sign * swing, fy * wide  # [m] forward, left of the person
+            out.append(Cylinder(f"person/{self.id}/{name}", self.x + c * ax - s * ay, self.y + s * ax + c * ay,
+                                r * wide, z0 * tall, z1 * tall, self.shirt if color is None else color))
+        return out
 
 
 def check_path(person, scene, source="people"):
@@ -140,20 +167,25 @@ def check_path(person, scene, source="people"):
     for i, ((x0, y0), (x1, y1)) in enumerate(segments):
         n = max(2, int(math.hypot(x1 - x0, y1 - y0) / 0.05) + 1)
         xs, ys = np.linspace(x0, x1, n), np.linspace(y0, y1, n)
-        dist, owner = scene.clearance(np.stack([xs, ys], axis=1), z_max=HEIGHT)
-        bad = np.nonzero(dist < RADIUS)[0]
+        dist, owner = scene.clearance(np.stack([xs, ys], axis=1), z_max=person.height)
+        bad = np.nonzero(dist < person.radius)[0]
         if len(bad):
             k = bad[0]
             what = scene.names[owner[k]]
             where = f"person {person.id}: path segment {i} ({x0:g}, {y0:g}) -> ({x1:g}, {y1:g})" if person.path \
                 else f"person {person.id}: pose ({x0:g}, {y0:g})"
             raise WorldError(source, where, f"passes through {what!r} at ({xs[k]:.2f}, {ys[k]:.2f}) "
-                                            f"(a person needs {RADIUS} m of clearance)")
+                                            f"(this person needs {person.radius:.3g} m of clearance)")
 
 
 def person_from_spec(spec, r, where):
     """Build a :class:`Person` from a people-file entry (validated through reader ``r``)."""
     r.mapping(spec, where)
+    for key in spec:
+        if key not in SPEC_KEYS:
+            close = difflib.get_close_matches(str(key), SPEC_KEYS, n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            r.fail(f"{where}.{key}", f"unknown key {key!r}{hint}; a person takes {', '.join(SPEC_KEYS)}")
     pid = spec.get("id")
     if not isinstance(pid, str) or not pid:
         r.fail(f"{where}.id", "every person needs a non-empty string id")
@@ -181,6 +213,8 @@ def person_from_spec(spec, r, where):
     if mode not in MODES:
         r.fail(f"{where}.mode", f"must be one of {', '.join(MODES)}, got {mode!r}")
     kwargs["mode"] = mode
+    for key, default, (lo, hi) in (("height", HEIGHT, HEIGHT_RANGE), ("build", 1.0, BUILD_RANGE)):
+        kwargs[key] = r.number(spec.get(key, default), f"{where}.{key}", minimum=lo, maximum=hi)
     return Person(**kwargs)
 
 

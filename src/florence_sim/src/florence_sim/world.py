@@ -100,13 +100,15 @@ class _Reader:
             self.fail(where, f"expected a list, got {type(value).__name__}")
         return value
 
-    def number(self, value, where, minimum=None, positive=False):
+    def number(self, value, where, minimum=None, positive=False, maximum=None):
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
             self.fail(where, f"expected a finite number, got {value!r}")
         if positive and value <= 0:
             self.fail(where, f"must be > 0, got {value!r}")
         if minimum is not None and value < minimum:
             self.fail(where, f"must be >= {minimum}, got {value!r}")
+        if maximum is not None and value > maximum:
+            self.fail(where, f"must be <= {maximum}, got {value!r}")
         return float(value)
 
     def vector(self, value, where, length, **kw):
