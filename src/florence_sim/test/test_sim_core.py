@@ -289,6 +289,94 @@ def test_grouped_and_ungrouped_casting_agree(robot):
     np.testing.assert_array_equal(o1, o2)
 
 
+def _level_camera(x, z):
+    """4x4 pose of an optical frame at (x, 0, z) [m] looking along +x, level (z forward, x right, y down)."""
+    pose = np.eye(4)
+    pose[:3, :3] = [[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]]
+    pose[0, 3], pose[2, 3] = x, z
+    return pose
+
+
+def test_depth_noise_default_is_about_4_cm_at_5_m():
+    """std = 0.0016 * d^2 (Khoshelham and Elberink 2012): 4 cm at 5 m, on a wall 5 m ahead filling the image."""
+    assert CameraConfig().depth_noise == 0.0016
+    scene = Scene([Box("wall", 5.05, 0.0, 0.0, 0.1, 20.0, 0.0, 9.0)])  # face at x = 5
+    cam = DepthCamera(CameraConfig(max_range=6.0), rng=np.random.default_rng(7))
+    depth, _ = cam.render(scene, _level_camera(0.0, 3.0))
+    assert np.isfinite(depth).all(), "a plane has no edges to drop"
+    err = depth - 5.0
+    assert abs(err.mean()) < 0.002 and err.std() == pytest.approx(0.04, rel=0.05)
+    exact, _ = cam.render(scene, _level_camera(0.0, 3.0), noise=False)
+    np.testing.assert_allclose(exact, 5.0, atol=1e-5)
+
+
+def _person_before_wall(edge_dropout, person_x=1.5, wall_x=3.5):
+    """Noiseless depth of a person facing a level camera at 0.54 m, before a wall: (with the
+    person, without) and the person's pixels."""
+    wall = Scene([Box("wall", wall_x + 0.05, 0.0, 0.0, 0.1, 20.0, 0.0, 2.4)])
+    person = Person("a", x=person_x, y=0.0, yaw=math.pi)
+    cam = DepthCamera(CameraConfig(depth_noise=0.0, edge_dropout=edge_dropout))
+    depth, _ = cam.render(wall.with_cylinders(person.primitives()), _level_camera(0.0, 0.54))
+    bare, _ = DepthCamera(CameraConfig(depth_noise=0.0, edge_dropout=0)).render(wall, _level_camera(0.0, 0.54))
+    return depth, bare
+
+
+def test_kinect_loses_depth_along_a_persons_silhouette_not_inside_it():
+    off, bare = _person_before_wall(0)
+    assert np.isfinite(off).all() and np.isfinite(bare).all(), "without edge dropout every pixel has depth"
+    body = off < bare - 1e-3  # the person's pixels: nearer than the bare wall and floor
+    on, _ = _person_before_wall(1)
+    lost = np.isnan(on)
+    assert lost.any() and not (lost & body).any(), "the person keeps every pixel: the far side of an edge is lost"
+    # every lost pixel lies at most 5 columns (the shadow) or 1 row from the person
+    near = body.copy()
+    for k in range(1, 6):
+        near[:, :-k] |= body[:, k:]
+        near[:, k:] |= body[:, :-k]
+    near[1:] |= body[:-1]
+    near[:-1] |= body[1:]
+    assert not (lost & ~near).any(), "depth lost away from the person (middle of the wall or floor)"
+    # torso rows: the projector (7.5 cm to the camera's right) casts its shadow on the wall left
+    # of the person: b * fx * (1/1.32 - 1/3.5) = 5 px; on the right only the one mixed pixel
+    cam = DepthCamera(CameraConfig())
+    spans = [np.nonzero(row)[0] for row in body]
+    rows = [r for r, cols in enumerate(spans) if len(cols) > 25 and cols[-1] - cols[0] + 1 == len(cols)]  # torso
+    assert len(rows) > 10
+    for r in rows:
+        left, right = spans[r][0], spans[r][-1]
+        width = 0.075 * cam.fx * (1 / (1.5 - 0.18) - 1 / 3.5)
+        assert lost[r, left - round(width) + 1: left].all() and not lost[r, left - round(width) - 2], r
+        assert lost[r, right + 1] and not lost[r, right + 2], r
+        assert np.isfinite(on[r, left:right + 1]).all()
+
+
+def test_edge_dropout_width_widens_the_mixed_band():
+    on, _ = _person_before_wall(2)
+    off, bare = _person_before_wall(0)
+    body = off < bare - 1e-3
+    r = int(np.nonzero(body.sum(axis=1) > 25)[0][0]) + 5
+    right = np.nonzero(body[r])[0].max()
+    assert np.isnan(on[r, right + 1: right + 3]).all() and np.isfinite(on[r, right + 3])
+    with pytest.raises(ValueError, match="edge_dropout"):
+        CameraConfig(edge_dropout=-1).validate()
+    with pytest.raises(ValueError, match="edge_dropout"):
+        CameraConfig(edge_dropout=True).validate()
+
+
+def test_edge_dropout_keeps_a_steep_floor_at_low_resolution(robot):
+    """Far ahead the floor's depth grows by more than 10 % a row at 64x48, but it is one surface:
+    no jump between primitives, nothing lost."""
+    cam = DepthCamera(CameraConfig(width=64, height=48, depth_noise=0.0, max_range=10.0))
+    depth, _ = cam.render(Scene([]), _camera_pose(robot, 0.0, 0.0, 0.0))
+    floor = depth[cam.cfg.height // 2 + 1:]
+    with np.errstate(invalid="ignore"):
+        assert np.nanmax(floor[:-1] / floor[1:]) > 1.1  # the steep part is in view
+    assert np.isfinite(floor[np.isfinite(depth[cam.cfg.height // 2 + 1:])]).all()
+    ref, _ = DepthCamera(CameraConfig(width=64, height=48, depth_noise=0.0, max_range=10.0,
+                                      edge_dropout=0)).render(Scene([]), _camera_pose(robot, 0.0, 0.0, 0.0))
+    np.testing.assert_array_equal(depth, ref)
+
+
 # ---------------------------------------------------------------------------------------- people
 def _walk(person, seconds):
     for _ in range(round(seconds / DT)):

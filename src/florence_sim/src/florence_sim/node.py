@@ -49,7 +49,7 @@ from florence_common_ros.diagnostics import OK, WARN, Diagnostics
 from florence_common_ros.node import read_params, run
 from florence_sim.base import BaseConfig
 from florence_sim.messages import Messages
-from florence_sim.sensors import CameraConfig, LaserConfig
+from florence_sim.sensors import EDGE_DROPOUT_MAX, CameraConfig, LaserConfig
 
 NAME = "florence_sim"
 _BASE, _CAMERA = BaseConfig(radius=1.0, height=1.0, wheel_separation=1.0), CameraConfig()
@@ -76,7 +76,11 @@ PARAMS = ParamTable(
     Param("odom_rate", float, 30.0, "odometry, imu and tf rate", unit="Hz", gt=0),
     Param("camera_width", int, _CAMERA.width, "Kinect image width", unit="px", ge=8, le=640),
     Param("camera_height", int, _CAMERA.height, "Kinect image height", unit="px", ge=6, le=480),
-    Param("depth_noise", float, _CAMERA.depth_noise, "depth noise std = depth_noise * depth^2", unit="1/m", ge=0),
+    Param("depth_noise", float, _CAMERA.depth_noise, "depth noise std = depth_noise * depth^2 (4 cm at 5 m, "
+          "Khoshelham and Elberink 2012)", unit="1/m", ge=0),
+    Param("depth_edge_dropout", int, _CAMERA.edge_dropout, "no depth (NaN) at object edges, as the Kinect: the "
+          "farther side of every depth jump of more than 10 % over this many pixels, and the projector's shadow "
+          "left of nearer objects; 0 turns both off", unit="px", ge=0, le=EDGE_DROPOUT_MAX),
     Param("render_without_subscribers", bool, False, "render the Kinect even when nobody listens"),
     Param("cmd_vel_timeout", float, _BASE.cmd_timeout, "sim time without cmd_vel after which the robot stops",
           unit="s", gt=0),
@@ -189,7 +193,8 @@ class SimNode:
         p = read_params(PARAMS)
         start = (p.x, p.y, p.yaw)
         laser = LaserConfig(min_ang=p.min_ang, max_ang=p.max_ang, noise=p.laser_noise, self_hits=p.laser_self_hits)
-        camera = CameraConfig(width=p.camera_width, height=p.camera_height, depth_noise=p.depth_noise)
+        camera = CameraConfig(width=p.camera_width, height=p.camera_height, depth_noise=p.depth_noise,
+                              edge_dropout=p.depth_edge_dropout)
         rates = Rates(laser=p.laser_rate, camera=p.camera_rate, odom=p.odom_rate)
         robot = RobotModel(rospy.get_param("/robot_description")) if rospy.has_param("/robot_description") \
             else RobotModel.from_xacro()
