@@ -1,5 +1,6 @@
 """World files, the shipped apartment and its generated map (no ROS processes)."""
 
+import itertools
 import math
 import pathlib
 import xml.etree.ElementTree as ET
@@ -296,3 +297,79 @@ def test_set_person_specs_are_checked_the_same_way():
     person = person_from_spec({"id": "v", "pose": [1, 2, 0], "height": 1.6, "build": 0.9}, _Reader("set_person"),
                               "spec")
     assert (person.height, person.build) == (1.6, 0.9)
+
+
+# ------------------------------------------------------------------ person-sized clutter
+CLUTTER = ("coat_stand", "floor_lamp", "tall_plant")  # types, and the names of their objects in the apartment
+# the doorways of maps/apartment/apartment.world.yaml: the middle of each gap in the walls [m]
+DOORWAYS = {"living_room": (2.45, 5.5), "kitchen": (6.45, 5.5), "bedroom": (1.45, 6.8), "bathroom": (6.6, 6.8),
+            "living_kitchen_opening": (5.0, 2.25)}
+
+
+def _only(scene, keep):
+    """The scene's primitives whose object name (before the '/') ``keep`` accepts."""
+    from florence_sim.geometry import Scene
+
+    return Scene([b for b in scene.boxes if keep(b.name.split("/")[0])],
+                 [c for c in scene.cylinders if keep(c.name.split("/")[0])], scene.ceiling)
+
+
+def test_person_sized_clutter_types_have_their_dimensions():
+    from florence_sim.world import instantiate, load_types
+
+    types = load_types(TYPES)
+
+    def parts(name):
+        boxes, cylinders = instantiate(types[name], name, 0.0, 0.0, 0.0)
+        return boxes, cylinders
+
+    boxes, cyls = parts("coat_stand")
+    assert max(c.z1 for c in cyls) == pytest.approx(1.75)
+    (coat,) = boxes
+    assert (coat.z0, coat.z1) == pytest.approx((1.10, 1.60)) and 0.4 <= coat.sy <= 0.5  # a coat hangs there
+    assert min(c.z0 for c in cyls) == 0.0 and max(c.radius for c in cyls if c.z1 < 0.1) >= 0.2  # base disc
+    boxes, cyls = parts("floor_lamp")
+    shade = max(cyls, key=lambda c: c.z1)
+    assert not boxes and 1.6 <= shade.z1 <= 1.7 and shade.radius == pytest.approx(0.20)
+    assert min(c.radius for c in cyls) < 0.02  # a thin pole
+    boxes, cyls = parts("tall_plant")
+    pot = min(cyls, key=lambda c: c.z0)
+    assert not boxes and pot.radius == pytest.approx(0.18) and pot.z1 == pytest.approx(0.40)
+    assert 0.5 <= 2 * max(c.radius for c in cyls) <= 0.7 and max(c.z1 for c in cyls) == pytest.approx(1.80)
+
+
+@pytest.mark.parametrize(("name", "robot_xy"), [("coat_stand", (2.9, 4.7)), ("floor_lamp", (2.6, 2.6)),
+                                                ("tall_plant", (2.8, 2.6))])
+def test_the_kinect_sees_the_apartments_clutter_up_to_head_height(apartment, name, robot_xy):
+    """From 2.5-3 m the Kinect (tilted 0.25 rad up) sees each piece of clutter to above 1.5 m:
+    the depth image differs from the apartment without it."""
+    from florence_sim.robot_model import RobotModel
+    from florence_sim.sensors import CameraConfig, DepthCamera, world_pose
+
+    (x, y, _), = [o["pose"] for o in yaml.safe_load(APARTMENT.read_text())["objects"] if o["name"] == name]
+    yaw = math.atan2(y - robot_xy[1], x - robot_xy[0])
+    pose = world_pose(*robot_xy, yaw) @ RobotModel.from_xacro().pose("camera_depth_optical_frame",
+                                                                      {"camera_tilt_joint": 0.25})
+    cam = DepthCamera(CameraConfig(depth_noise=0.0, edge_dropout=0))
+    seen, _ = cam.render(apartment.scene, pose)
+    without, _ = cam.render(_only(apartment.scene, lambda obj: obj != name), pose)
+    changed = np.isfinite(seen) & ~(np.abs(seen - without) < 0.05)
+    assert changed.sum() > 150, f"{name}: {changed.sum()} pixels"
+    z = (cam.points(seen)[changed] @ pose[:3, :3].T + pose[:3, 3])[:, 2]
+    assert z.max() > 1.5 and z.min() < 1.0, f"{name} seen from {z.min():.2f} to {z.max():.2f} m"
+
+
+def test_the_apartments_clutter_keeps_clear_of_people_hotspots_and_doorways(apartment):
+    """At least 0.5 m from every shipped person's path, 0.6 m from every room's hotspot and doorway
+    (distances from the clutter's footprint at any height up to 2.1 m)."""
+    clutter = _only(apartment.scene, lambda obj: obj in CLUTTER)
+    assert {n.split("/")[0] for n in clutter.names} == set(CLUTTER)
+    for person in load_people(MAPS / "apartment" / "people.yaml", apartment.scene):
+        points = np.concatenate([np.linspace(a, b, 200) for a, b in itertools.pairwise(person.path)])
+        gap, owner = clutter.clearance(points, z_max=2.1)
+        assert gap.min() >= 0.5, f"{clutter.names[owner[gap.argmin()]]} {gap.min():.2f} m from {person.id}'s path"
+    places = {f"hotspot {n}": r.hotspot[:2] for n, r in apartment.rooms.items()}
+    places.update({f"doorway {n}": xy for n, xy in DOORWAYS.items()})
+    for what, xy in places.items():
+        gap, owner = clutter.clearance([xy], z_max=2.1)
+        assert gap[0] >= 0.6, f"{clutter.names[owner[0]]} {gap[0]:.2f} m from the {what}"
