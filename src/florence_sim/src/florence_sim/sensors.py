@@ -92,7 +92,7 @@ class UrgLaser:
 # Kinect (PrimeSense) edge artefacts. The IR projector sits 7.5 cm to the right of the IR camera
 # (+x of the depth optical frame): a surface point the projector cannot light returns no depth,
 # i.e. a band on the far surface to the left (-x) of every nearer object, b * fx * (1/z_near -
-# 1/z_far) px wide (2.7 px at 160x120 for a person at 2 m before a wall at 4 m). Pixels that
+# 1/z_far) px wide (2.3 px at 160x120 for a person at 2 m before a wall at 3.5 m). Pixels that
 # straddle a depth jump (mixed pixels) return none either; we drop the farther side of each jump.
 PROJECTOR_BASELINE = 0.075  # [m] IR projector to IR camera, along +x of the depth optical frame
 EDGE_JUMP = 0.1  # a neighbour nearer by more than this fraction of a pixel's depth makes it an edge
@@ -106,8 +106,8 @@ class CameraConfig:
     hfov: float = math.radians(58.0)  # [rad] horizontal field of view (square pixels)
     min_range: float = 0.55  # [m] nothing nearer is seen (NaN)
     max_range: float = 4.0  # [m]
-    # [1/m] depth noise std = depth_noise * depth^2 (structured light): 4 cm at 5 m, 1.4 cm at 3 m
-    # (Khoshelham and Elberink 2012, Sensors 12(2): 1437-1454, about 4 cm at 5 m)
+    # [1/m] depth noise std = depth_noise * depth^2 (structured light): 4 cm at 5 m, 1.4 cm at 3 m,
+    # as Khoshelham and Elberink 2012 (Sensors 12(2): 1437-1454) measured the Kinect
     depth_noise: float = 0.0016
     # [px] depth lost at object edges (0: none): the farther side of every depth jump (more than
     # EDGE_JUMP of its depth, to another primitive) over this many pixels, and the projector's shadow
