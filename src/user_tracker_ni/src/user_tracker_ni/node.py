@@ -219,6 +219,7 @@ class UserTrackerNode:
     # --- outputs ----------------------------------------------------------------------------------------
     def _publish(self, stamp):
         msg = TrackedUsers(stamp=stamp, frame_id=self.fixed)
+        sensors = []  # uint8[]: rospy wants bytes, built once at the end
         with self.lock:
             tracks = self.tracker.published() if self.tracking else []
             now = stamp.to_sec()
@@ -231,8 +232,9 @@ class UserTrackerNode:
                 msg.velocities.append(Vector3(vx, vy, 0.0))
                 seen = max(t for t in (tr.last_kinect, tr.last_laser) if t is not None)
                 msg.last_seen.append(rospy.Time.from_sec(seen))
-                msg.sensors.append((1 if tr.last_kinect is not None and now - tr.last_kinect <= RECENT else 0)
-                                   | (2 if tr.last_laser is not None and now - tr.last_laser <= RECENT else 0))
+                sensors.append((1 if tr.last_kinect is not None and now - tr.last_kinect <= RECENT else 0)
+                               | (2 if tr.last_laser is not None and now - tr.last_laser <= RECENT else 0))
+        msg.sensors = bytes(sensors)
         msg.num_users_tracked = len(msg.user_ids)
         self.pub.publish(msg)
         if self.tf_out is not None and msg.user_ids:
