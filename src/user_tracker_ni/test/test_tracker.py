@@ -114,6 +114,48 @@ def test_laser_alone_confirms_only_legs_that_walk():
     assert walker.pid is not None  # no colour yet: a new persistent id after id_wait
 
 
+def test_a_person_back_beside_the_robot_gets_their_id_once_the_kinect_sees_them():
+    """Red is seen by the Kinect, leaves, and comes back beside the robot, where only the laser
+    sees her walking legs: a provisional id, then her own once the Kinect sees her shirt; a blue
+    stranger who comes the same way keeps the provisional id as his own."""
+    rng = np.random.default_rng(8)
+    tracker = Tracker(TrackerParams(id_wait=0.5))
+    t = 0.0
+    for _ in range(20):
+        tracker.update(t, [kinect(2.0, 0.0, RED, rng)], KINECT)
+        t += 1 / RATE
+    (red,) = tracker.published()
+    red_id = red.pid
+    t += 3.0  # gone: the track times out
+    tracker.update(t, [], KINECT)
+    assert tracker.published() == []
+    for k in range(30):  # walking in from beside the robot: laser only for 3 s
+        tracker.update(t, [laser(0.3 + 0.05 * k, 1.2, rng)], LASER)
+        t += 0.1
+    (back,) = tracker.published()
+    assert back.provisional and back.pid != red_id
+    provisional = back.pid
+    for _ in range(3):
+        tracker.update(t, [kinect(0.3 + 0.05 * 30, 1.2, RED, rng)], KINECT)
+        tracker.update(t + 0.01, [laser(0.3 + 0.05 * 30, 1.2, rng)], LASER)
+        t += 1 / RATE
+    (back,) = tracker.published()
+    assert back.pid == red_id and not back.provisional
+    assert provisional not in tracker.gallery.signatures, "the provisional id is forgotten"
+    tracker.reset()
+    for k in range(30):  # a stranger the same way
+        tracker.update(t, [laser(0.3 + 0.05 * k, -1.2, rng)], LASER)
+        t += 0.1
+    (stranger,) = tracker.published()
+    own = stranger.pid
+    for _ in range(3):
+        tracker.update(t, [kinect(1.8, -1.2, BLUE, rng)], KINECT)
+        tracker.update(t + 0.01, [laser(1.8, -1.2, rng)], LASER)
+        t += 1 / RATE
+    (stranger,) = tracker.published()
+    assert stranger.pid == own != red_id and not stranger.provisional
+
+
 def test_clutter_seen_once_never_confirms():
     rng = np.random.default_rng(6)
     tracker = Tracker(TrackerParams(confirm_hits=3))

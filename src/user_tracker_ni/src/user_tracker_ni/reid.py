@@ -78,6 +78,11 @@ class Gallery:
         self.counts[pid] = 0 if sig is None else 1
         return pid
 
+    def forget(self, pid):
+        """Drop an id (a provisional one that turned out to be a known person)."""
+        self.signatures.pop(pid, None)
+        self.counts.pop(pid, None)
+
     def update(self, pid, sig, min_weight=0.05):
         """Average ``sig`` into the id's signature: the plain mean of the first 1/min_weight
         signatures, then a running mean that weighs each new one by ``min_weight``. An id enrolled

@@ -23,8 +23,12 @@ Life of a track:
 Ids: on confirmation a track gets ``ni_id``, a fresh per-appearance number (as OpenNI's user
 ids were), and ``pid``, the persistent id: the gallery's (reid.py) id whose signature matches
 the track's colour signature and that no other live track holds, or a new one. A track
-confirmed without a signature yet (seen by the laser only) waits up to ``id_wait`` for its
-first signature before it gets a new persistent id; it is published only once it has one.
+confirmed without a signature yet (seen by the laser only: a person walking in beside the robot)
+waits up to ``id_wait`` for its first signature, then gets a *provisional* persistent id (a new
+one) so that it is published; it is published only once it has an id. When the Kinect first sees
+the colours of a track with a provisional id, the track is re-identified: it takes the stored
+id its signature matches (one no other live track holds), and the provisional id, which never
+had a signature, is forgotten; with no match the provisional id becomes its own.
 """
 
 import itertools
@@ -91,6 +95,7 @@ class Track:
     confirmed_at: float | None = None  # [s]
     ni_id: int | None = None
     pid: int | None = None
+    provisional: bool = False  # pid was given without a signature: re-identified at the first one
     signature: np.ndarray | None = None  # this appearance's mean signature
     signatures: int = 0
     sources: set = field(default_factory=set)  # sensors that updated it since the last publication
@@ -173,6 +178,8 @@ class Tracker:
                 track.signatures += 1
                 track.signature = det.signature if track.signature is None else \
                     reid.blend(track.signature, det.signature, max(1.0 / track.signatures, 0.05))
+                if track.provisional:
+                    self._reidentify(track)
                 if track.pid is not None:
                     self.gallery.update(track.pid, det.signature)
         else:
@@ -193,6 +200,16 @@ class Tracker:
                 track.pid = pid if pid is not None else self.gallery.enroll(track.signature)
             elif t - track.confirmed_at >= p.id_wait:
                 track.pid = self.gallery.enroll(None)
+                track.provisional = True
+
+    def _reidentify(self, track):
+        """The first signature of a track with a provisional id: take the stored id it matches."""
+        held = {tr.pid for tr in self.tracks if tr is not track and tr.pid is not None}
+        pid, _ = self.gallery.identify(track.signature, exclude=held | {track.pid})
+        if pid is not None:
+            self.gallery.forget(track.pid)
+            track.pid = pid
+        track.provisional = False
 
     def _maintain(self, t):
         p = self.params
