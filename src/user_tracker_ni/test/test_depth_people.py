@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from user_tracker_ni.depth_people import Camera, DepthParams, detect
 
-from florence_eval import kinect_scenes as scenes
+from florence_harness import kinect_scenes as scenes
 from user_tracker_ni import reid
 
 pytestmark = pytest.mark.unit

@@ -1,6 +1,6 @@
 """Synthetic depth and colour images of a level Florence Kinect (0.54 m high): a small ray caster
-of vertical cylinders (people, clutter) and vertical walls, for the people detector's unit tests and
-bench/people.py's timing (independent of florence_sim's renderer)."""
+of vertical cylinders (people, clutter) and vertical walls, for the people detector's unit tests
+(independent of florence_sim's renderer, so the detector is not tuned to one renderer only)."""
 
 import math
 
@@ -10,8 +10,15 @@ from florence_common import pose
 
 WIDTH, HEIGHT = 160, 120
 HFOV = math.radians(57.0)
-FX = FY = (WIDTH / 2) / math.tan(HFOV / 2)
-K = [FX, 0.0, (WIDTH - 1) / 2, 0.0, FY, (HEIGHT - 1) / 2, 0.0, 0.0, 1.0]
+
+
+def intrinsics(width, height):
+    """K (row-major 3x3) of a pinhole camera of the Kinect's horizontal field of view."""
+    f = (width / 2) / math.tan(HFOV / 2)
+    return [f, 0.0, (width - 1) / 2, 0.0, f, (height - 1) / 2, 0.0, 0.0, 1.0]
+
+
+K = intrinsics(WIDTH, HEIGHT)
 CAMERA_HEIGHT = 0.54  # [m]
 # optical frame (z forward, x right, y down) in the base frame (x forward, y left, z up)
 CAMERA_POSE = pose.transform_matrix((0.0, 0.0, CAMERA_HEIGHT), (-0.5, 0.5, -0.5, 0.5))
@@ -44,15 +51,16 @@ def tall_plant(x, y):
             (x, y, 0.36, 0.95, 1.85, (40, 120, 40))]
 
 
-def render(cylinders=(), walls=(), noise=0.0, seed=0):
+def render(cylinders=(), walls=(), noise=0.0, seed=0, width=WIDTH, height=HEIGHT):
     """(depth [m] float32 with NaN, rgb uint8) of a level Kinect at the origin looking along +x.
 
     walls: (x0, y0, x1, y1, rgb) vertical faces from the floor to 2.4 m."""
-    v, u = np.mgrid[0:HEIGHT, 0:WIDTH].astype(float)
-    rays = np.stack([(u - K[2]) / FX, (v - K[5]) / FY, np.ones_like(u)], -1) @ CAMERA_POSE[:3, :3].T
+    k = intrinsics(width, height)
+    v, u = np.mgrid[0:height, 0:width].astype(float)
+    rays = np.stack([(u - k[2]) / k[0], (v - k[5]) / k[4], np.ones_like(u)], -1) @ CAMERA_POSE[:3, :3].T
     o = CAMERA_POSE[:3, 3]
-    best = np.full((HEIGHT, WIDTH), np.inf)
-    rgb = np.zeros((HEIGHT, WIDTH, 3), np.uint8)
+    best = np.full((height, width), np.inf)
+    rgb = np.zeros((height, width, 3), np.uint8)
     dx, dy, dz = rays[..., 0], rays[..., 1], rays[..., 2]
     for cx, cy, r, z0, z1, col in cylinders:
         a = dx * dx + dy * dy
@@ -80,6 +88,7 @@ def render(cylinders=(), walls=(), noise=0.0, seed=0):
     best[hit], rgb[hit] = s[hit], (150, 130, 100)
     depth = best * 1.0  # the optical z of a unit-z ray is the ray parameter
     if noise:
-        depth = depth + np.random.default_rng(seed).normal(0, 1, depth.shape) * noise * depth * depth
+        with np.errstate(invalid="ignore"):
+            depth = depth + np.random.default_rng(seed).normal(0, 1, depth.shape) * noise * depth * depth
     depth = np.where(np.isfinite(depth) & (depth <= 4.5), depth, np.nan).astype(np.float32)
     return depth, rgb
