@@ -96,3 +96,31 @@ def test_scan_points_places_returns():
     assert valid.tolist() == [True, False, True]
     assert xy[0] == pytest.approx((1.0, 0.0)) and xy[2] == pytest.approx((-2.0, 0.0), abs=1e-9)
     assert len(find_legs(xy, valid, (0.0, 0.0), P)) == 0
+
+
+def test_chair_and_table_legs_are_too_thin_for_shins():
+    """3 and 5 cm legs (a chair's, a table's, a lamp's pole) are no legs; 10 cm shins are."""
+    legs, _ = run(render([(2.0, 0.5, 0.015), (2.0, 0.1, 0.025), (2.0, -0.4, 0.05)]))
+    assert len(legs) == 1 and legs[0] == pytest.approx((2.0, -0.4), abs=0.03)
+
+
+def test_a_beam_without_a_return_does_not_split_a_leg():
+    ranges = render([(2.0, 0.1, 0.065), (2.0, -0.1, 0.065)])
+    hit = np.flatnonzero(np.isfinite(ranges))
+    ranges[hit[2]] = np.nan  # a dropout inside the first leg
+    legs, people = run(ranges)
+    assert len(legs) == 2 and len(people) == 1
+
+
+def test_beam_ends_for_free_space():
+    from user_tracker_ni.laser_legs import beam_ends
+
+    ends, hit = beam_ends([1.0, np.inf, np.nan, 0.01], 0.0, math.pi / 2, 0.02, 5.6, IDENTITY, 5.0)
+    assert hit.tolist() == [True, False, False, False]
+    assert ends[0] == pytest.approx((1.0, 0.0)) and ends[1] == pytest.approx((0.0, 5.0), abs=1e-9)
+    assert np.isnan(ends[2]).all() and np.isnan(ends[3]).all()
+
+
+def test_pairs_know_their_legs():
+    people, members = pair_legs(np.array([[0.0, 0.0], [0.3, 0.0], [3.0, 3.0]]), P, members=True)
+    assert members == [(0, 1), (2,)] and people[0] == pytest.approx((0.15, 0.0))

@@ -1,13 +1,14 @@
 """Legs in a laser scan, paired into people (no ROS; vectorised over beams).
 
 The Hokuyo sits 0.15 m above the floor: it cuts people at the ankles and shins. A scan is
-split into clusters of consecutive returns closer than ``cluster_distance`` to each other;
-a leg is a cluster of at least ``min_points`` returns, ``min_width``..``max_width`` wide,
-standing out from what is behind it on both sides (a bump on a wall is not a leg). Its centre
-is the mean of its returns moved back along the ray by 3/8 of its width: the returns lie on the
-near side of the leg. Legs
-closer than ``max_pair_distance`` pair into a person at their midpoint; a leg with no
-partner (the other one hidden behind it) is a person by itself.
+split into clusters of consecutive returns closer than ``cluster_distance`` to each other (a
+beam or two without a return inside a leg do not split it); a leg is a cluster of at least
+``min_points`` returns, ``min_width``..``max_width`` wide (shins are 6 cm or more; chair and
+table legs and lamp poles are thinner), standing out from what is behind it on both sides (a
+bump on a wall is not a leg). Its centre is the mean of its returns moved back along the ray by
+3/8 of its width: the returns lie on the near side of the leg. Legs closer than
+``max_pair_distance`` pair into a person at their midpoint; a leg with no partner (the other one
+hidden behind it) is a person by itself.
 
 Points are placed through the laser's 4x4 pose in the output frame, so the upside-down
 mounting (rolled by pi: the scan runs clockwise) needs no special case.
@@ -26,7 +27,8 @@ CENTRE_SHIFT = 0.375  # leg centre beyond the mean of its returns, in leg widths
 class LegParams:
     cluster_distance: float = 0.10  # [m] largest gap between neighbouring returns of one cluster
     min_points: int = 3  # returns in a leg
-    min_width: float = 0.03  # [m] narrowest leg (end to end of its returns)
+    max_gap_beams: int = 2  # beams in a row without a return that do not split a cluster
+    min_width: float = 0.06  # [m] narrowest leg (end to end of its returns): shins are wider, chair legs not
     max_width: float = 0.25  # [m] widest leg (two legs seen as one included)
     edge_jump: float = 0.10  # [m] a leg stands this much in front of its neighbours on both sides
     max_pair_distance: float = 0.50  # [m] two legs of one person are at most this far apart
@@ -36,8 +38,8 @@ class LegParams:
         for name in ("cluster_distance", "min_width", "max_width", "edge_jump", "max_pair_distance", "max_range"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
-        if self.min_points < 2 or self.min_width >= self.max_width:
-            raise ValueError("need min_points >= 2 and min_width < max_width")
+        if self.min_points < 2 or self.min_width >= self.max_width or self.max_gap_beams < 0:
+            raise ValueError("need min_points >= 2, min_width < max_width and max_gap_beams >= 0")
         return self
 
 
@@ -53,38 +55,57 @@ def scan_points(ranges, angle_min, angle_increment, range_min, range_max, laser_
     return xy, valid
 
 
+def beam_ends(ranges, angle_min, angle_increment, range_min, range_max, laser_pose, no_return_range):
+    """(ends [N, 2], hit [N]) of a scan's beams in the output frame, for a free-space memory: a
+    return ends its beam (hit); no return (+inf, REP 117) lets it run ``no_return_range`` [m]
+    through free space; an error (NaN, too near, negative) gives a NaN end (skipped)."""
+    r = np.asarray(ranges, dtype=float)
+    a = angle_min + angle_increment * np.arange(len(r))
+    hit = np.isfinite(r) & (r > range_min) & (r < range_max)
+    length = np.where(hit, r, np.where(np.isposinf(r), no_return_range, np.nan))
+    local = np.stack([length * np.cos(a), length * np.sin(a), np.zeros_like(length)], axis=1)
+    return local @ np.asarray(laser_pose)[:2, :3].T + np.asarray(laser_pose)[:2, 3], hit
+
+
 def find_legs(xy, valid, sensor_xy, params):
     """Leg centres [L, 2] among the scan points (in scan order); ``sensor_xy`` is the laser's
-    position in the same frame (ranges are measured from it)."""
+    position in the same frame (ranges are measured from it). A beam with no valid return inside
+    a leg (a dropout) does not split it: clusters are made of the valid returns, broken where
+    more than ``max_gap_beams`` beams in a row have none."""
     p = params
+    xy = np.asarray(xy, dtype=float)
     rng = np.hypot(xy[:, 0] - sensor_xy[0], xy[:, 1] - sensor_xy[1])
     valid = valid & (rng <= p.max_range)
-    n = len(xy)
-    if n == 0 or not valid.any():
+    idx = np.flatnonzero(valid)  # beams with a return, in scan order
+    n = len(idx)
+    if n == 0:
         return np.zeros((0, 2))
+    pts, r = xy[idx], rng[idx]
     step = np.full(n, np.inf)
-    step[1:] = np.hypot(xy[1:, 0] - xy[:-1, 0], xy[1:, 1] - xy[:-1, 1])
-    new_cluster = ~valid | ~np.roll(valid, 1) | (step > p.cluster_distance)
+    step[1:] = np.hypot(pts[1:, 0] - pts[:-1, 0], pts[1:, 1] - pts[:-1, 1])
+    gap = np.full(n, np.iinfo(np.int64).max)
+    gap[1:] = np.diff(idx) - 1
+    new_cluster = (step > p.cluster_distance) | (gap > p.max_gap_beams)
     new_cluster[0] = True
     label = np.cumsum(new_cluster) - 1
     starts = np.flatnonzero(new_cluster)
     ends = np.append(starts[1:], n) - 1
     counts = ends - starts + 1
-    ok = valid[starts] & (counts >= p.min_points)
-    width = np.hypot(xy[ends, 0] - xy[starts, 0], xy[ends, 1] - xy[starts, 1])
+    ok = counts >= p.min_points
+    width = np.hypot(pts[ends, 0] - pts[starts, 0], pts[ends, 1] - pts[starts, 1])
     ok &= (width >= p.min_width) & (width <= p.max_width)
-    # both neighbours beyond the cluster (by range) or no return there: it stands out
-    near = np.minimum(rng[starts], rng[ends])
-    before = np.where(starts > 0, rng[np.maximum(starts - 1, 0)], np.inf)
-    after = np.where(ends < n - 1, rng[np.minimum(ends + 1, n - 1)], np.inf)
-    before = np.where(np.isfinite(before), before, np.inf)
-    after = np.where(np.isfinite(after), after, np.inf)
+    # both neighbouring beams of the scan beyond the cluster (by range) or without a return:
+    # it stands out (a bump on a wall does not)
+    near = np.minimum(r[starts], r[ends])
+    first, last = idx[starts], idx[ends]
+    full = np.where(valid, rng, np.inf)
+    before = np.where(first > 0, full[np.maximum(first - 1, 0)], np.inf)
+    after = np.where(last < len(xy) - 1, full[np.minimum(last + 1, len(xy) - 1)], np.inf)
     ok &= (before - near >= p.edge_jump) & (after - near >= p.edge_jump)
     if not ok.any():
         return np.zeros((0, 2))
-    keep = ok[label] & valid
     sums = np.zeros((len(starts), 2))
-    np.add.at(sums, label[keep], xy[keep])
+    np.add.at(sums, label, pts)
     centroid = sums[ok] / counts[ok, None]
     # the returns lie on the leg's near side: their mean is about 3/4 of a radius short of the
     # centre (a circle sampled at even beam angles), so move it back along the ray
@@ -93,23 +114,27 @@ def find_legs(xy, valid, sensor_xy, params):
     return centroid + ray * (CENTRE_SHIFT * width[ok])[:, None]
 
 
-def pair_legs(legs, params):
+def pair_legs(legs, params, members=False):
     """People [P, 2] from leg centres: pairs closer than max_pair_distance meet at their midpoint
-    (the closest pairs first), lone legs stand for a person each."""
+    (the closest pairs first), lone legs stand for a person each. With ``members``, also the leg
+    indices of each person ([(i, j) or (i,)])."""
     legs = np.asarray(legs, dtype=float).reshape(-1, 2)
     n = len(legs)
     d = distance_matrix(legs, legs)
     i, j = np.triu_indices(n, k=1)
     close = d[i, j] < params.max_pair_distance
     used = np.zeros(n, bool)
-    people = []
+    people, who = [], []
     for k in np.argsort(d[i, j][close], kind="stable"):  # a handful of legs: greedy matching
         a, b = i[close][k], j[close][k]
         if not used[a] and not used[b]:
             used[a] = used[b] = True
             people.append((legs[a] + legs[b]) / 2)
+            who.append((int(a), int(b)))
     people += list(legs[~used])
-    return np.array(people).reshape(-1, 2)
+    who += [(int(a),) for a in np.flatnonzero(~used)]
+    people = np.array(people).reshape(-1, 2)
+    return (people, who) if members else people
 
 
 def detect(ranges, angle_min, angle_increment, range_min, range_max, laser_pose, params):
