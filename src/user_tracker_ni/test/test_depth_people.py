@@ -95,3 +95,40 @@ def test_millimetre_images_work_once_converted():
     mm = np.nan_to_num(depth * 1000.0, nan=0.0).astype(np.uint16)
     people, _ = detect(mm.astype(np.float32) / 1000.0, CAMERA, scenes.CAMERA_POSE, P, colour)
     assert len(people) == 1
+
+
+WALL = (230, 230, 220)
+
+
+def test_the_inside_corner_of_two_walls_is_hollow_not_a_person():
+    """A person-high niche, 0.5 m across: round enough and the right width, but it bulges away."""
+    people, rejected = run(walls=[(2.7, 0.25, 3.0, 0.0, WALL, 1.7), (3.0, 0.0, 2.7, -0.25, WALL, 1.7)])
+    assert people == [] and rejected["hollow (a corner of walls)"] >= 1, rejected
+
+
+def test_a_door_frame_taller_than_a_person_is_no_person():
+    """The end of a thick wall seen across a doorway: a 0.3 m wide column to the ceiling, far
+    enough (4.1 m) for the image to show 2.1 m there."""
+    people, rejected = run(walls=[(4.1, 0.0, 4.1, 0.3, WALL), (4.1, 0.3, 4.4, 0.3, WALL)])
+    assert people == [] and rejected["taller than a person"] >= 1, rejected
+
+
+def test_a_wall_seen_at_a_grazing_angle_is_too_deep():
+    people, rejected = run(walls=[(1.5, 0.1, 3.5, 0.9, WALL, 1.6)])
+    assert people == [] and rejected["too deep"] >= 1, rejected
+
+
+def test_a_person_behind_a_sofa_back_is_still_found():
+    """The body below the torso is hidden: the fill test cannot judge and does not reject."""
+    people, _ = run(scenes.standing(2.8, 0.0, RED), walls=[(2.2, -0.6, 2.2, 0.6, (60, 80, 140), 0.85)])
+    assert len(people) == 1
+
+
+def test_clear_view_of_spots_in_front_hidden_beside_and_too_near():
+    from user_tracker_ni.depth_people import in_clear_view
+
+    depth, _ = scenes.render(scenes.standing(2.0, 0.0, RED), walls=[(3.5, -2.0, 3.5, 2.0, WALL)])
+    spots = [[2.0, 0.0], [3.0, 0.05], [2.5, 1.3], [0.6, 0.0], [-1.0, 0.0]]
+    clear = in_clear_view(depth, CAMERA, scenes.CAMERA_POSE, spots, P)
+    # in view; behind the person; too far to the side; too near for the upper body; behind the robot
+    assert clear.tolist() == [True, False, False, False, False]

@@ -54,7 +54,7 @@ def tall_plant(x, y):
 def render(cylinders=(), walls=(), noise=0.0, seed=0, width=WIDTH, height=HEIGHT):
     """(depth [m] float32 with NaN, rgb uint8) of a level Kinect at the origin looking along +x.
 
-    walls: (x0, y0, x1, y1, rgb) vertical faces from the floor to 2.4 m."""
+    walls: (x0, y0, x1, y1, rgb[, top]) vertical faces from the floor to ``top`` [m] (2.4 m)."""
     k = intrinsics(width, height)
     v, u = np.mgrid[0:height, 0:width].astype(float)
     rays = np.stack([(u - k[2]) / k[0], (v - k[5]) / k[4], np.ones_like(u)], -1) @ CAMERA_POSE[:3, :3].T
@@ -72,14 +72,16 @@ def render(cylinders=(), walls=(), noise=0.0, seed=0, width=WIDTH, height=HEIGHT
         zh = o[2] + s * dz
         hit = (disc >= 0) & (s > 0) & (zh >= z0) & (zh <= z1) & (s < best)
         best[hit], rgb[hit] = s[hit], col
-    for x0, y0, x1, y1, col in walls:
+    for wall in walls:
+        x0, y0, x1, y1, col = wall[:5]
+        top = wall[5] if len(wall) > 5 else 2.4  # [m]
         ex, ey = x1 - x0, y1 - y0
         den = dx * ey - dy * ex
         with np.errstate(divide="ignore", invalid="ignore"):
             s = ((x0 - o[0]) * ey - (y0 - o[1]) * ex) / den
             w = ((x0 - o[0]) * dy - (y0 - o[1]) * dx) / den
         zh = o[2] + s * dz
-        hit = (s > 0) & (w >= 0) & (w <= 1) & (zh >= 0) & (zh <= 2.4) & (s < best)
+        hit = (s > 0) & (w >= 0) & (w <= 1) & (zh >= 0) & (zh <= top) & (s < best)
         best[hit], rgb[hit] = s[hit], col
     # floor
     with np.errstate(divide="ignore", invalid="ignore"):

@@ -12,12 +12,25 @@ detector therefore looks for what every person in view shows and furniture does 
 3. Each cluster is judged on its shape:
    - lateral width (across the line of sight) within ``min_width``..``max_width``: a wall or a
      wardrobe is wider, a wall's end, a lamp's pole or a coat stand's pole narrower;
+   - not taller than a person: no point within 5 cm of ``max_height`` (a wall's end, a door
+     frame, a wardrobe reach it, also where the image's top row cuts them);
+   - not deep: along the line of sight its points span at most ``max_depth`` (plus the depth
+     noise): the camera sees a body's near side only, a wall seen at a grazing angle runs away
+     from the camera for metres;
    - not flat: a torso is round, the spread of its points across the best vertical plane is
      at least ``min_roundness`` plus half the depth noise there; a wall piece or a cupboard
      door is flat;
-   - a body below it: the band ``hips_min``..``hips_max`` (legs, hips or a seated torso)
-     within ``body_reach`` of the cluster holds at least ``min_hips_width`` of width: the pole
-     of a floor lamp, of a coat stand, the trunk of a tall plant do not;
+   - not hollow: a torso bulges toward the camera (its range, as a function of the bearing, is
+     convex); the inside corner of two walls is hollow;
+   - a body below it: in the image, the pixels under the middle half of the cluster's columns
+     that would show heights ``fill_min``..``fill_max`` (0.40-0.75 m: legs, hips or a seated
+     torso) at the cluster's distance mostly show something at that distance (within
+     ``fill_tolerance``) rather than the background through it: the pole of a floor lamp or of
+     a coat stand, the trunk of a tall plant leave the background visible there. At least
+     ``min_fill`` of those pixels must be body; pixels showing something nearer (a table, a
+     sofa's back in front of the person) are occluded and do not count, and when fewer than
+     ``min_judged`` of the pixels can be judged (occluded, or out of the image) the cluster is not
+     rejected for it;
    - it does not touch the left or right border of the image (half a person is placed badly
      and half a wall looks like one): the laser keeps a person there.
 4. What passes is a person: its centre is the mean of its upper-body points moved back along
@@ -40,6 +53,7 @@ from scipy import ndimage
 from user_tracker_ni import reid
 
 CENTRE_SHIFT = 0.375  # the body's centre beyond the mean of its visible points, in widths
+TALL_MARGIN = 0.05  # [m] points this near max_height: taller than people (a door frame, a wall)
 
 
 @dataclass(frozen=True)
@@ -48,22 +62,28 @@ class DepthParams:
     min_range: float = 0.45  # [m] nearer depth readings are ignored
     max_range: float = 4.5  # [m] farther ones too
     upper_min: float = 0.95  # [m] lowest point of the upper-body band
-    max_height: float = 2.1  # [m] highest point considered
+    max_height: float = 2.15  # [m] highest point considered; a cluster reaching it is taller than a person
     cell: float = 0.06  # [m] floor grid of the clustering
     min_points: int = 12  # upper-body points of a person (decimated image)
     min_width: float = 0.22  # [m] narrowest upper body across the line of sight
     max_width: float = 0.85  # [m] widest
+    max_depth: float = 0.5  # [m] extent of its points along the line of sight
     min_roundness: float = 0.012  # [m] spread across the best vertical plane of a round torso
     noise_at_1m: float = 0.0016  # [m] depth noise standard deviation at 1 m (grows with d^2)
-    hips_min: float = 0.55  # [m] the body band below the upper body
-    hips_max: float = 0.90  # [m]
-    min_hips_width: float = 0.16  # [m]
-    body_reach: float = 0.12  # [m] how far around the upper body's footprint the body band is looked for
+    hips_min: float = 0.55  # [m] the band below the upper body whose colours count as the shirt's
+    hips_max: float = 0.90  # [m]   when the image cuts the top (a near person)
+    body_reach: float = 0.12  # [m] how far around the upper body's footprint that band is looked for
+    fill_min: float = 0.40  # [m] heights below the upper body where a person shows a body ...
+    fill_max: float = 0.75  # [m]
+    min_fill: float = 0.35  # ... in at least this share of the judged pixels
+    fill_tolerance: float = 0.30  # [m] a pixel within this of the cluster's distance is body
+    min_judged: float = 0.3  # share of those pixels that must be judgeable (not occluded, in the image)
     sitting_top: float = 1.45  # [m] a person whose top is seen below this is sitting
     border: int = 1  # [px, decimated] clusters touching the left or right border are not judged
 
     def validate(self):
-        for name in ("min_range", "max_range", "cell", "min_width", "max_width", "min_hips_width", "body_reach"):
+        for name in ("min_range", "max_range", "cell", "min_width", "max_width", "max_depth", "body_reach",
+                     "fill_tolerance"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
         if not (self.min_range < self.max_range and self.min_width < self.max_width
@@ -72,6 +92,9 @@ class DepthParams:
                              "0 < hips_min < hips_max <= upper_min < max_height")
         if self.target_width < 16 or self.min_points < 3:
             raise ValueError("target_width must be >= 16 and min_points >= 3")
+        if not (0 <= self.fill_min < self.fill_max <= self.upper_min and 0 <= self.min_fill <= 1
+                and 0 <= self.min_judged <= 1):
+            raise ValueError("need 0 <= fill_min < fill_max <= upper_min, min_fill and min_judged within 0..1")
         return self
 
 
@@ -172,16 +195,24 @@ def detect(depth, camera, camera_pose, params, rgb=None):
             rejected["too narrow" if width < p.min_width else "too wide"] += 1
             continue
         noise = p.noise_at_1m * r_mean * r_mean
+        top = float(z[mine].max())
+        truncated = bool(vv[mine].min() <= 0)
+        if top >= p.max_height - TALL_MARGIN:
+            rejected["taller than a person"] += 1
+            continue
+        near, far = np.percentile(rng[mine], [2, 98])
+        if far - near > p.max_depth + 2 * noise:
+            rejected["too deep"] += 1
+            continue
         if _roundness(pts[mine, :2]) < p.min_roundness + 0.5 * noise:
             rejected["flat"] += 1
             continue
-        body = hips_label == label
-        hips_width = _lateral_width(bearing[body], r_mean) if np.count_nonzero(body) >= 3 else 0.0
-        if hips_width < p.min_hips_width:
+        if _curvature(bearing[mine], rng[mine]) < 0:
+            rejected["hollow (a corner of walls)"] += 1
+            continue
+        if _fill_below(d, rays, R, t, bearing[mine], r_mean, p) < p.min_fill:
             rejected["no body below"] += 1
             continue
-        top = float(z[mine].max())
-        truncated = bool(vv[mine].min() <= 0)
         centroid = pts[mine, :2].mean(axis=0)
         ray = (centroid - cam_xy) / max(float(np.hypot(*(centroid - cam_xy))), 1e-6)
         centre = centroid + ray * CENTRE_SHIFT * width
@@ -195,6 +226,80 @@ def detect(depth, camera, camera_pose, params, rgb=None):
                 sig = reid.signature(colour[vv[torso], uu[torso]])
         people.append(PersonDetection(float(centre[0]), float(centre[1]), top, truncated, width, posture, count, sig))
     return people, rejected
+
+
+def in_clear_view(depth, camera, camera_pose, points, params, height=1.1, margin=0.12, clearance=0.3,
+                  beyond=-0.5):
+    """Boolean [N]: the camera would see the upper body of a person standing or sitting at each of
+    ``points`` [N, 2] (base frame): the point ``height`` [m] above the floor projects inside the
+    image (``margin``: share of the width kept free at either side, where the detector does not
+    judge), in range, and the depth image shows nothing nearer than it by ``clearance`` [m] there
+    (no occluder). In range: from ``min_range + clearance`` to ``max_range + beyond`` (the default
+    keeps half a metre inside the far limit, where the detector is sure to see a person).
+    depth: [H, W] [m] (NaN for no return); camera: :class:`Camera`; camera_pose: 4x4 pose of the
+    optical frame in the base frame."""
+    pts = np.asarray(points, float).reshape(-1, 2)
+    if len(pts) == 0:
+        return np.zeros(0, bool)
+    pose = np.asarray(camera_pose, float)
+    world = np.column_stack([pts, np.full(len(pts), height)])
+    optical = (world - pose[:3, 3]) @ pose[:3, :3]  # base -> optical frame (R^T (p - t))
+    z = optical[:, 2]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u = camera.fx * optical[:, 0] / z + camera.cx
+        v = camera.fy * optical[:, 1] / z + camera.cy
+    lo_u, hi_u = margin * camera.width, (1 - margin) * camera.width - 1
+    ok = (z > params.min_range + clearance) & (z < params.max_range + beyond)
+    ok &= (u >= lo_u) & (u <= hi_u) & (v >= 0) & (v <= camera.height - 1)
+    out = np.zeros(len(pts), bool)
+    d = np.asarray(depth)
+    for k in np.flatnonzero(ok):  # a handful of tracks: a 5 x 5 patch each
+        ui, vi = round(float(u[k])), round(float(v[k]))
+        patch = d[max(vi - 2, 0):vi + 3, max(ui - 2, 0):ui + 3]
+        with np.errstate(invalid="ignore"):
+            nearer = np.count_nonzero(patch < z[k] - clearance)
+        out[k] = nearer <= patch.size // 4
+    return out
+
+
+def _fill_below(d, rays, R, t, bearings, distance, p):
+    """Share of the judgeable pixels below a cluster that show a body (see the module's docstring);
+    1.0 when too few can be judged. d: decimated depth [m]; rays: its unit-depth rays (optical);
+    R, t: the optical frame's pose in the base frame; bearings: of the cluster's points from the
+    camera [rad]; distance: its mean horizontal range from the camera [m]."""
+    lo, hi = np.percentile(bearings, [2, 98])
+    mid, quarter = (lo + hi) / 2, (hi - lo) / 4
+    middle_row = rays[rays.shape[0] // 2] @ R.T.astype(np.float32)
+    column_bearing = np.arctan2(middle_row[:, 1], middle_row[:, 0])
+    columns = np.flatnonzero(np.abs(column_bearing - mid) <= quarter)
+    if len(columns) == 0:
+        return 1.0
+    u0, u1 = int(columns[0]), int(columns[-1]) + 1
+    window_rays = rays[:, u0:u1] @ R.T.astype(np.float32)  # base-frame directions [h, w, 3]
+    horiz = np.hypot(window_rays[..., 0], window_rays[..., 1])
+    scale = distance / np.maximum(horiz, 1e-6)  # ray length (at unit optical depth) to that range
+    z = t[2] + window_rays[..., 2] * scale  # height each pixel would show at the cluster's distance
+    band = (z >= p.fill_min) & (z <= p.fill_max)
+    expected = round((p.fill_max - p.fill_min) / max(float(np.median(np.abs(np.diff(z, axis=0)))), 1e-6))
+    depth = d[:, u0:u1]
+    seen_range = depth * horiz  # horizontal range of what each pixel shows
+    with np.errstate(invalid="ignore"):
+        body = band & (np.abs(seen_range - distance) <= p.fill_tolerance)
+        through = band & ~(seen_range < distance - p.fill_tolerance) & ~body  # farther, or nothing (NaN)
+    judged = np.count_nonzero(body) + np.count_nonzero(through)
+    if judged < p.min_judged * max(expected, 1) * (u1 - u0):
+        return 1.0
+    return np.count_nonzero(body) / judged
+
+
+def _curvature(bearings, ranges):
+    """Second-order coefficient [m/rad^2] of the range as a function of the bearing (least squares):
+    positive for a body that bulges toward the camera (a torso, a wall seen square on: a little),
+    negative for a hollow one (the inside corner of two walls)."""
+    if len(bearings) < 6:
+        return 0.0
+    b = bearings - bearings.mean()
+    return float(np.polyfit(b.astype(np.float64), ranges.astype(np.float64), 2)[0])
 
 
 def _lateral_width(bearings, distance):
