@@ -21,8 +21,9 @@ def kinect(x, y, sig, rng):
     return Detection(x + rng.normal(0, 0.03), y + rng.normal(0, 0.03), KINECT, 0.08, sig)
 
 
-def laser(x, y, rng):
-    return Detection(x + rng.normal(0, 0.02), y + rng.normal(0, 0.02), LASER, 0.05)
+def laser(x, y, rng, free=True):
+    """A leg pair; ``free``: in floor the laser saw free before (a walking person's next step)."""
+    return Detection(x + rng.normal(0, 0.02), y + rng.normal(0, 0.02), LASER, 0.05, free=free)
 
 
 def by_position(tracker, x, y):
@@ -106,7 +107,8 @@ def test_laser_alone_confirms_only_legs_that_walk():
     tracker = Tracker()
     t = 0.0
     for k in range(40):  # 4 s: a table's legs at (3, 3) and (3, 3.5); a person walking from (0, 2)
-        tracker.update(t, [laser(3.0, 3.0, rng), laser(3.0, 3.5, rng), laser(0.0 + 0.05 * k, 2.0, rng)], LASER)
+        tracker.update(t, [laser(3.0, 3.0, rng, free=False), laser(3.0, 3.5, rng, free=False),
+                           laser(0.0 + 0.05 * k, 2.0, rng)], LASER)
         t += 0.1
     (walker,) = tracker.published()
     assert walker.position == pytest.approx((0.05 * 39, 2.0), abs=0.1)
@@ -156,6 +158,19 @@ def test_a_person_back_beside_the_robot_gets_their_id_once_the_kinect_sees_them(
     assert stranger.pid == own != red_id and not stranger.provisional
 
 
+def test_legs_that_seem_to_walk_where_the_floor_was_never_free_do_not_confirm():
+    """A tentative track hopping along a wall seen at a grazing angle, or from chair leg to chair
+    leg, moves as far as a walker but never through floor the laser saw free."""
+    rng = np.random.default_rng(9)
+    tracker = Tracker()
+    t = 0.0
+    for k in range(40):
+        tracker.update(t, [laser(1.0 + 0.05 * k, 3.0, rng, free=False)], LASER)
+        t += 0.1
+    assert tracker.published() == []
+    assert max(tr.travelled for tr in tracker.tracks) > 1.0
+
+
 def test_clutter_seen_once_never_confirms():
     rng = np.random.default_rng(6)
     tracker = Tracker(TrackerParams(confirm_hits=3))
@@ -187,3 +202,108 @@ def test_nan_detections_are_ignored():
 def test_params_are_validated():
     with pytest.raises(ValueError, match="kinect_gate"):
         Tracker(TrackerParams(kinect_gate=0.0))
+
+
+def test_colours_keep_two_people_apart_where_their_positions_do_not():
+    """Red and blue walk up to each other, stand 0.1 m apart for a second (positions alone cannot
+    tell them apart), and go back the way they came: each shirt keeps its track."""
+    for seed in range(5):
+        rng = np.random.default_rng(100 + seed)
+        tracker = Tracker()
+
+        def at(t):
+            """Red's and blue's positions at t [s]: 2 s in, 1 s still, 2 s back."""
+            walk = min(t, 2.0) - max(0.0, t - 3.0)
+            return (1.0 + 0.5 * walk, 0.05), (3.0 - 0.5 * walk, -0.05)
+
+        t = 0.0
+        while t < 5.0:
+            red, blue = at(t)
+            tracker.update(t, [kinect(*red, RED, rng), kinect(*blue, BLUE, rng)], KINECT)
+            if 0.5 < t < 1.0:
+                ids = (by_position(tracker, *red).pid, by_position(tracker, *blue).pid)
+            t += 1 / RATE
+        red, blue = at(5.0)
+        assert (by_position(tracker, *red).pid, by_position(tracker, *blue).pid) == ids, f"seed {seed}"
+
+
+def test_a_leg_pair_between_two_people_moves_neither():
+    rng = np.random.default_rng(11)
+    tracker = Tracker()
+    t = 0.0
+    for _ in range(10):
+        tracker.update(t, [kinect(2.0, 0.15, RED, rng), kinect(2.0, -0.15, BLUE, rng)], KINECT)
+        t += 1 / RATE
+    before = {tr.pid: tr.position for tr in tracker.published()}
+    for _ in range(5):  # legs of both paired at their midpoint, 0.15 m from each
+        tracker.update(t, [laser(2.0, 0.0, rng)], LASER)
+        t += 0.1
+    after = {tr.pid: tr.position for tr in tracker.published()}
+    assert all(math.dist(before[p], after[p]) < 0.08 for p in before), (before, after)
+
+
+def test_a_track_the_kinect_has_in_clear_view_but_does_not_see_is_dropped():
+    """A track the laser keeps on a spot where the Kinect plainly sees nobody."""
+    rng = np.random.default_rng(12)
+    tracker = Tracker(TrackerParams(unseen_timeout=1.0, timeout=5.0))
+    t = 0.0
+    for _ in range(10):
+        tracker.update(t, [kinect(2.0, 0.0, RED, rng)], KINECT)
+        tracker.update(t, [laser(2.0, 0.0, rng)], LASER)
+        t += 0.1
+    for k in range(20):  # the laser goes on seeing "legs" there; the Kinect, in clear view, nothing
+        tracker.update(t, [laser(2.0, 0.0, rng)], LASER)
+        tracker.update(t, [], KINECT)
+        tracker.in_clear_view(t, list(tracker.tracks))
+        if k < 9:
+            assert len(tracker.published()) == 1
+        t += 0.1
+    assert tracker.published() == []
+
+
+def test_out_of_clear_view_the_laser_keeps_the_track():
+    rng = np.random.default_rng(13)
+    tracker = Tracker(TrackerParams(unseen_timeout=1.0))
+    t = 0.0
+    for _ in range(10):
+        tracker.update(t, [kinect(2.0, 0.0, RED, rng)], KINECT)
+        t += 0.1
+    for _ in range(30):
+        tracker.update(t, [laser(2.0, 0.0, rng)], LASER)
+        tracker.update(t, [], KINECT)
+        tracker.in_clear_view(t, [])  # beside the robot, or hidden
+        t += 0.1
+    assert len(tracker.published()) == 1
+
+
+def test_a_coasting_track_is_published_no_further_than_the_coast_limit():
+    rng = np.random.default_rng(14)
+    tracker = Tracker(TrackerParams(coast_limit=0.3, timeout=2.0))
+    t = 0.0
+    for k in range(30):  # walking at 1 m/s along x
+        tracker.update(t, [kinect(1.0 + 1.0 * t, 0.0, RED, rng)], KINECT)
+        t += 1 / RATE
+    last_x = 1.0 + 1.0 * (t - 1 / RATE)
+    tracker.update(t + 1.0, [], KINECT)  # a second without a detection
+    (track,) = tracker.published()
+    assert track.position[0] == pytest.approx(last_x + 1.0, abs=0.25)  # the filter coasts on
+    assert track.output(0.3)[0] == pytest.approx(last_x + 0.3, abs=0.15)  # what is published does not
+
+
+def test_detections_on_the_maps_walls_are_nobody():
+    tracker = Tracker()
+    for k in range(10):
+        tracker.update(k / RATE, [Detection(1.0, 1.0, KINECT, 0.08, RED, on_structure=True)], KINECT)
+    assert tracker.tracks == []
+
+
+def test_a_tentative_track_cannot_hop_faster_than_a_person_walks():
+    """Legs 0.35 m apart seen in turn (a chair's, a wall's end): each scan's detection is too far
+    from the last for a walker, so no tentative track travels."""
+    tracker = Tracker()
+    t = 0.0
+    for k in range(30):
+        tracker.update(t, [Detection(1.0 + 0.35 * (k % 2), 2.0, LASER, 0.05, free=True)], LASER)
+        t += 0.1
+    assert tracker.published() == []
+    assert max(tr.travelled for tr in tracker.tracks) < 0.1

@@ -2,8 +2,15 @@
 
 Each person is a :class:`Track`: a constant-velocity Kalman filter (kalman.py) plus its
 bookkeeping. Detections arrive per sensor with their time; every call predicts the tracks
-to that time, assigns detections to tracks by gated global nearest neighbour (Euclidean
-distance to the predicted position, scipy's linear_sum_assignment), and updates.
+to that time, assigns detections to tracks by gated global nearest neighbour (scipy's
+linear_sum_assignment), and updates. The cost of a pair is the Euclidean distance to the predicted
+position [m], plus, for a Kinect detection with a colour signature and a track with one,
+``appearance_weight`` [m] times their Bhattacharyya distance (0..1); a pair further apart than the
+sensor's gate, or whose colours differ by more than ``appearance_gate`` once the track's colours
+are known (``appearance_after`` signatures), is never made: where two people cross, the red shirt
+keeps the red track. A track learns the colours of a detection only when no other confirmed
+track is within ``signature_clearance``: two people close together may be one blob to the Kinect,
+or one half hidden by the other, and a track that learnt a mixture would match both.
 
 Life of a track:
 
@@ -13,19 +20,30 @@ Life of a track:
   without that: clutter the detector takes for a person now and then never confirms.
 - A laser detection (a pair of legs) that matches no track starts a tentative *laser* track:
   it is confirmed only once it has moved ``laser_confirm_distance`` from where it started, as a
-  pair of walking legs does; furniture legs, walls and a still person's legs never confirm by
-  the laser alone (a still person is confirmed by the Kinect and then kept by the laser).
+  pair of walking legs does, and at least ``laser_free_hits`` of its detections, and most of them
+  (``laser_free_share``), lay in floor the laser had seen free before (a person walks into free
+  floor; a track hopping between chair legs or sliding along a wall never does). Furniture legs,
+  walls and a still person's legs never confirm by the laser alone (a still person is confirmed
+  by the Kinect and then kept by the laser).
 - A confirmed track is kept by either sensor: a person who leaves the Kinect's view (close up,
   or beside the robot) stays tracked while the laser sees their legs.
 - A track no sensor has updated for ``timeout`` (confirmed) or ``tentative_timeout``
   (tentative) is dropped.
+- A detection on thin static structure of the robot's map (a wall, a door frame, a pole; the
+  caller marks it) is nobody: it is not used at all (a person's centre is never inside a wall,
+  and such a detection would drag a track onto it).
+- What the Kinect does not see counts too: a confirmed track whose spot the Kinect had in clear
+  view (the caller says which, :meth:`Tracker.in_clear_view`) without detecting a person there for
+  ``unseen_timeout`` is dropped, whatever the laser says: a track the laser dragged onto a chair's
+  legs, or a wall end, does not live on there.
 
 Ids: on confirmation a track gets ``ni_id``, a fresh per-appearance number (as OpenNI's user
 ids were), and ``pid``, the persistent id: the gallery's (reid.py) id whose signature matches
 the track's colour signature and that no other live track holds, or a new one. A track
 confirmed without a signature yet (seen by the laser only: a person walking in beside the robot)
-waits up to ``id_wait`` for its first signature, then gets a *provisional* persistent id (a new
-one) so that it is published; it is published only once it has an id. When the Kinect first sees
+waits for its first signature for ``id_wait`` out of the Kinect's clear view (in clear view the
+Kinect is about to see who it is), then gets a *provisional* persistent id (a new one) so that
+it is published; it is published only once it has an id. When the Kinect first sees
 the colours of a track with a provisional id, the track is re-identified: it takes the stored
 id its signature matches (one no other live track holds), and the provisional id, which never
 had a signature, is forgotten; with no match the provisional id becomes its own.
@@ -52,6 +70,8 @@ class Detection:
     source: str  # KINECT or LASER
     std: float = 0.1  # [m] position standard deviation
     signature: np.ndarray | None = None  # colour signature (reid.signature), Kinect only
+    free: bool | None = None  # laser only: in floor the laser saw free lately (free_space.py)
+    on_structure: bool = False  # on thin static structure of the robot's map (static_map.py)
 
 
 @dataclass(frozen=True)
@@ -60,21 +80,37 @@ class TrackerParams:
     laser_gate: float = 0.4  # [m] the same for the laser's leg pairs
     confirm_hits: int = 3  # Kinect detections that confirm a Kinect-started track ...
     confirm_window: int = 5  # ... within its first this many Kinect frames
-    laser_confirm_distance: float = 0.5  # [m] travel that confirms a laser-started track
+    laser_confirm_distance: float = 0.5  # [m] travel that confirms a laser-started track ...
+    laser_free_hits: int = 5  # ... with at least this many of its detections in free floor ...
+    laser_free_share: float = 0.6  # ... and at least this share of them, seen in at least ...
+    laser_hit_share: float = 0.7  # ... this share of the scans since it started
+    max_speed: float = 2.0  # [m/s] a tentative track takes no detection farther than this speed allows
+    unseen_timeout: float = 1.0  # [s] a track in the Kinect's clear view it did not detect for this long is dropped
+    coast_limit: float = 0.3  # [s] a published position extrapolates at most this long past the last update
     timeout: float = 1.0  # [s] a confirmed track no sensor updated for this long is dropped
     tentative_timeout: float = 0.6  # [s] the same for a tentative track
     id_wait: float = 1.0  # [s] a confirmed track waits this long for a signature before a new id
     process_noise: float = 1.0  # [m^2/s^3] white acceleration density of the filter
+    appearance_weight: float = 0.5  # [m] cost of a colour difference of 1 (Bhattacharyya) in the assignment
+    appearance_gate: float = 0.7  # largest colour difference of a Kinect detection and a track ...
+    appearance_after: int = 5  # ... once the track has averaged this many signatures
+    signature_clearance: float = 0.8  # [m] colours are learnt only with no other track this near
     reid_threshold: float = 0.4  # largest Bhattacharyya distance of a re-identification
     max_tracks: int = 30  # tentative tracks beyond this are not started (clutter storms)
 
     def validate(self):
         for name in ("kinect_gate", "laser_gate", "laser_confirm_distance", "timeout", "tentative_timeout",
-                     "process_noise"):
+                     "process_noise", "unseen_timeout", "coast_limit"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
         if not 1 <= self.confirm_hits <= self.confirm_window or self.max_tracks < 1 or self.id_wait < 0:
             raise ValueError("need 1 <= confirm_hits <= confirm_window, max_tracks >= 1, id_wait >= 0")
+        if self.laser_free_hits < 0 or not 0 <= self.laser_free_share <= 1 or not 0 <= self.laser_hit_share <= 1:
+            raise ValueError("need laser_free_hits >= 0, laser_free_share and laser_hit_share within 0..1")
+        if not self.max_speed > 0:
+            raise ValueError(f"max_speed must be > 0, got {self.max_speed}")
+        if self.appearance_weight < 0 or not 0 < self.appearance_gate <= 1 or self.appearance_after < 1:
+            raise ValueError("need appearance_weight >= 0, 0 < appearance_gate <= 1, appearance_after >= 1")
         if not 0 < self.reid_threshold <= 1:
             raise ValueError(f"reid_threshold must be in (0, 1], got {self.reid_threshold}")
         return self
@@ -88,17 +124,23 @@ class Track:
     last_update: float  # [s] any sensor
     start: tuple  # (x, y) [m] where it started
     last_kinect: float | None = None  # [s]
+    unseen_since: float | None = None  # [s] in the Kinect's clear view, not detected, since
     last_laser: float | None = None  # [s]
     kinect_hits: int = 0
+    laser_hits: int = 0
+    free_hits: int = 0  # laser detections in free floor
     kinect_frames: int = 0  # Kinect frames since it started (while tentative)
+    laser_frames: int = 0  # scans since it started (while tentative)
     travelled: float = 0.0  # [m] largest distance from the start
     confirmed_at: float | None = None  # [s]
+    id_wait_from: float | None = None  # [s] the wait for a signature (id_wait) counts from here
     ni_id: int | None = None
     pid: int | None = None
     provisional: bool = False  # pid was given without a signature: re-identified at the first one
     signature: np.ndarray | None = None  # this appearance's mean signature
     signatures: int = 0
     sources: set = field(default_factory=set)  # sensors that updated it since the last publication
+    updated: tuple | None = None  # ((x, y), (vx, vy)) just after the last update
 
     @property
     def confirmed(self):
@@ -106,7 +148,18 @@ class Track:
 
     @property
     def position(self):
+        """Where the filter predicts the person now [m] (for association)."""
         return self.filter.position
+
+    def output(self, coast_limit):
+        """(x, y) [m] to publish: the filter's estimate, but no more than ``coast_limit`` [s] of
+        extrapolation past the last update (a track coasting on an old velocity would walk through
+        walls)."""
+        late = self.filter.t - self.last_update
+        if late <= coast_limit or self.updated is None:
+            return self.position
+        (x, y), (vx, vy) = self.updated
+        return x + vx * coast_limit, y + vy * coast_limit
 
     @property
     def velocity(self):
@@ -127,20 +180,25 @@ class Tracker:
 
     def update(self, t, detections, source):
         """Fuse the detections of one sensor reading taken at time ``t`` [s]."""
-        dets = [d for d in detections if np.isfinite(d.x) and np.isfinite(d.y)]
+        dets = [d for d in detections if np.isfinite(d.x) and np.isfinite(d.y) and not d.on_structure]
         for track in self.tracks:
             track.filter.predict(t)
-            if source == KINECT and not track.confirmed:
-                track.kinect_frames += 1
+            if not track.confirmed:
+                if source == KINECT:
+                    track.kinect_frames += 1
+                else:
+                    track.laser_frames += 1
         gate = self.params.kinect_gate if source == KINECT else self.params.laser_gate
+        if source == LASER:
+            dets = self._unambiguous(dets, gate)
         free = list(range(len(dets)))
         # confirmed tracks choose first: a tentative track (table legs, say) never takes a detection
         # that a confirmed person's track wants
         for group in ([tr for tr in self.tracks if tr.confirmed], [tr for tr in self.tracks if not tr.confirmed]):
             if not group or not free:
                 continue
-            cost = distance_matrix([tr.position for tr in group], [(dets[j].x, dets[j].y) for j in free])
-            pairs, _, left = assign(cost, gate)
+            cost = self._cost(group, [dets[j] for j in free], gate, t)
+            pairs, _, left = assign(cost, np.inf)
             for row, col in pairs:
                 self._apply(group[row], dets[free[col]], t, source)
             free = [free[col] for col in left]
@@ -149,14 +207,67 @@ class Tracker:
                 self._start(dets[j], t, source)
         self._maintain(t)
 
+    def in_clear_view(self, t, tracks, in_view=None):
+        """After the Kinect frame of time ``t``: ``tracks`` (of self.tracks) were in its clear view
+        (in the image, in range, nothing in front). Those it did not detect start, or go on,
+        counting toward ``unseen_timeout``; every other track's count is reset. ``in_view`` (by
+        default ``tracks``): the tracks whose colours the Kinect may see soon (to the end of its
+        range): those without a persistent id wait for them instead of taking a provisional one."""
+        clear = {id(tr) for tr in tracks}
+        coming = clear if in_view is None else {id(tr) for tr in in_view}
+        kept = []
+        for track in self.tracks:
+            if track.confirmed and track.pid is None and id(track) in coming:
+                track.id_wait_from = t  # the Kinect will see who it is in a moment: no provisional id yet
+            if not track.confirmed or id(track) not in clear or track.last_kinect == t:
+                track.unseen_since = None
+            elif track.unseen_since is None:
+                track.unseen_since = t
+            if track.unseen_since is None or t - track.unseen_since < self.params.unseen_timeout:
+                kept.append(track)
+        self.tracks = kept
+
     def published(self):
         """Confirmed tracks that have a persistent id, by persistent id."""
         return sorted((tr for tr in self.tracks if tr.confirmed and tr.pid is not None), key=lambda tr: tr.pid)
 
     # --- internals --------------------------------------------------------------------------------------
+    def _unambiguous(self, dets, gate):
+        """Leg pairs within the gate of one confirmed track at most: where two people are close (they
+        cross, or walk side by side), a pair may hold a leg of each, and with no colour to tell them
+        apart it would drag one track onto the other; the Kinect's detections carry those tracks."""
+        confirmed = [tr.position for tr in self.tracks if tr.confirmed]
+        if len(confirmed) < 2 or not dets:
+            return dets
+        near = distance_matrix(confirmed, [(d.x, d.y) for d in dets]) < gate
+        return [d for d, n in zip(dets, near.sum(axis=0), strict=True) if n < 2]
+
+    def _cost(self, tracks, dets, gate, t):
+        """Assignment costs [len(tracks), len(dets)] (inf: never) of distance and colour; a tentative
+        track's gate is also what ``max_speed`` allows since its last update (plus 0.1 m of noise),
+        so that it cannot hop from one chair leg to the next."""
+        p = self.params
+        cost = distance_matrix([tr.position for tr in tracks], [(d.x, d.y) for d in dets])
+        gates = np.array([gate if tr.confirmed else min(gate, 0.1 + p.max_speed * (t - tr.last_update))
+                          for tr in tracks])
+        cost[cost >= gates[:, None]] = np.inf
+        for j, det in enumerate(dets):
+            if det.signature is None:
+                continue
+            for i, tr in enumerate(tracks):
+                if tr.signature is None or not np.isfinite(cost[i, j]):
+                    continue
+                a = reid.distance(tr.signature, det.signature)
+                if a > p.appearance_gate and tr.signatures >= p.appearance_after:
+                    cost[i, j] = np.inf
+                else:
+                    cost[i, j] += p.appearance_weight * a
+        return cost
+
     def _start(self, det, t, source):
         kf = ConstantVelocity(det.x, det.y, t, pos_std=det.std, q=self.params.process_noise)
-        track = Track(kf, source, t, t, (det.x, det.y), kinect_frames=int(source == KINECT))
+        track = Track(kf, source, t, t, (det.x, det.y), kinect_frames=int(source == KINECT),
+                      laser_frames=int(source == LASER))
         self._record(track, det, t, source)
         self.tracks.append(track)
         self._maybe_confirm(track, t)
@@ -166,15 +277,23 @@ class Tracker:
         self._record(track, det, t, source)
         self._maybe_confirm(track, t)
 
+    def _crowded(self, track, det):
+        """Another track within ``signature_clearance`` of the detection: the Kinect may have seen
+        the two people as one, or one half hidden by the other, so its colours are not learnt."""
+        r = self.params.signature_clearance
+        return any(other is not track and np.hypot(other.position[0] - det.x, other.position[1] - det.y) < r
+                   for other in self.tracks if other.confirmed)
+
     def _record(self, track, det, t, source):
         track.last_update = t
+        track.updated = (track.position, track.velocity)
         track.sources.add(source)
         x, y = track.position
         track.travelled = max(track.travelled, float(np.hypot(x - track.start[0], y - track.start[1])))
         if source == KINECT:
             track.last_kinect = t
             track.kinect_hits += 1
-            if det.signature is not None:
+            if det.signature is not None and not self._crowded(track, det):
                 track.signatures += 1
                 track.signature = det.signature if track.signature is None else \
                     reid.blend(track.signature, det.signature, max(1.0 / track.signatures, 0.05))
@@ -184,21 +303,26 @@ class Tracker:
                     self.gallery.update(track.pid, det.signature)
         else:
             track.last_laser = t
+            track.laser_hits += 1
+            track.free_hits += int(bool(det.free))
 
     def _maybe_confirm(self, track, t):
         p = self.params
         if not track.confirmed:
             by_kinect = track.kinect_hits >= p.confirm_hits
-            by_laser = track.origin == LASER and track.travelled >= p.laser_confirm_distance
+            by_laser = (track.origin == LASER and track.travelled >= p.laser_confirm_distance
+                        and track.free_hits >= p.laser_free_hits
+                        and track.free_hits >= p.laser_free_share * track.laser_hits
+                        and track.laser_hits >= p.laser_hit_share * track.laser_frames)
             if by_kinect or by_laser:
-                track.confirmed_at = t
+                track.confirmed_at = track.id_wait_from = t
                 track.ni_id = next(self._ni_ids)
         if track.confirmed and track.pid is None:
             held = {tr.pid for tr in self.tracks if tr.pid is not None}
             if track.signature is not None:
                 pid, _ = self.gallery.identify(track.signature, exclude=held)
                 track.pid = pid if pid is not None else self.gallery.enroll(track.signature)
-            elif t - track.confirmed_at >= p.id_wait:
+            elif t - track.id_wait_from >= p.id_wait:
                 track.pid = self.gallery.enroll(None)
                 track.provisional = True
 
