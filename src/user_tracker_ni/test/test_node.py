@@ -37,6 +37,7 @@ def _static_frames(rospy_node):
 @pytest.fixture(scope="module")
 def tracker(ros_master, rospy_node, publisher):
     from sensor_msgs.msg import CameraInfo, Image, LaserScan
+
     from user_tracker_ni.msg import TrackedUsers
 
     keep = _static_frames(rospy_node)

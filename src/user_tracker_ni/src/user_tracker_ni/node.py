@@ -10,6 +10,7 @@ ROS Subscribers:
     camera/rgb/image_color (sensor_msgs/Image, rgb8 or bgr8): the colour image registered to the
         depth image (resized to it when its size differs), for the colour signatures.
     scan (sensor_msgs/LaserScan): the Hokuyo (upside down: placed through tf).
+    map (nav_msgs/OccupancyGrid, latched; with ~use_map): the robot's map (map_server's).
 
 ROS Publishers:
     tracked_users (user_tracker_ni/TrackedUsers): the confirmed users after every depth frame (the
@@ -22,7 +23,8 @@ ROS Publishers:
 ROS Services:
     ~Start (user_tracker_ni/Start): track from now on, afresh (harmless while tracking).
     ~Stop (user_tracker_ni/Stop): stop, forget every track and detection (persistent ids and
-        their colours are kept); harmless while stopped.
+        their colours are kept, and so is what the laser saw of the free floor, which it goes on
+        learning while stopped); harmless while stopped.
 
 Bad input (NaN or empty depth images, a camera_info that does not match the image, missing tf,
 colour without depth, NaN/inf in scans) is skipped with a throttled warning that says why; no
@@ -33,23 +35,25 @@ import threading
 import time
 from collections import Counter, deque
 
+import numpy as np
 import rospy
 import tf2_ros
 from geometry_msgs.msg import Point, Vector3
+from nav_msgs.msg import OccupancyGrid
 from sensor_msgs.msg import CameraInfo, Image, LaserScan
 from visualization_msgs.msg import Marker, MarkerArray
 
-from florence_common_ros.convert import depth_image_metres, image_to_array, to_matrix, transform_stamped
+from florence_common_ros.convert import depth_image_metres, image_to_array, to_matrix, to_xyyaw, transform_stamped
 from florence_common_ros.diagnostics import ERROR, OK, WARN, Diagnostics
 from florence_common_ros.node import read_params, run
-from user_tracker_ni import depth_people, laser_legs
+from user_tracker_ni import depth_people
 from user_tracker_ni.msg import TrackedUsers
 from user_tracker_ni.params import PARAMS, split
+from user_tracker_ni.pipeline import Pipeline
 from user_tracker_ni.srv import Start, StartResponse, Stop, StopResponse
-from user_tracker_ni.tracker import KINECT, LASER, Detection, Tracker
+from user_tracker_ni.static_map import StaticMap
 
 LOG = "user_tracker_ni: "
-KINECT_STD, LASER_STD = 0.08, 0.05  # [m] position noise of a detection of each sensor
 RECENT = 0.5  # [s] a sensor "saw" a user when it did within this long (the sensors field)
 COLOURS = [(0.9, 0.2, 0.2), (0.2, 0.5, 0.9), (0.2, 0.8, 0.3), (0.9, 0.7, 0.1), (0.7, 0.3, 0.9), (0.1, 0.8, 0.8)]
 
@@ -61,18 +65,19 @@ def colour_rgb(msg):
 
 class UserTrackerNode:
     def __init__(self):
-        self.values, self.depth_params, self.leg_params, self.tracker_params = split(read_params(PARAMS))
+        self.values, pipeline_params, self.map_params = split(read_params(PARAMS))
         v = self.values
         self.fixed, self.base = v["fixed_frame"], v["base_frame"]
         self.lock = threading.Lock()
-        self.tracker = Tracker(self.tracker_params)
+        self.pipeline = Pipeline(pipeline_params)
+        self.tracker = self.pipeline.tracker
         self.tracking = bool(v["start_tracking"])
+        self.map_frame_of_grid = v["map_frame"]
         self.camera = None  # depth_people.Camera of the latest camera_info
         self.camera_key = None
         self.colour = None  # (stamp [s], RGB array) of the latest colour image
         self.last_depth = None  # wall time of the last depth frame processed
         self.stats = Counter()
-        self.rejected = Counter()
         self.times = deque(maxlen=200)  # [s] processing time of recent depth frames
         self.warnings = {}
 
@@ -91,13 +96,15 @@ class UserTrackerNode:
         rospy.Subscriber("camera/rgb/image_color", Image, self._on_colour, queue_size=1, buff_size=2**24)
         rospy.Subscriber("camera/depth/image", Image, self._on_depth, queue_size=1, buff_size=2**24)
         rospy.Subscriber("scan", LaserScan, self._on_scan, queue_size=1)
+        if v["use_map"]:
+            rospy.Subscriber("map", OccupancyGrid, self._on_map, queue_size=1)
         rospy.loginfo(LOG + "tracking in %s%s", self.fixed, "" if self.tracking else " once ~Start is called")
 
     # --- services --------------------------------------------------------------------------------
     def _start(self, _req):
         with self.lock:
             was = self.tracking
-            self.tracker.reset()
+            self.pipeline.reset()
             self.tracking = True
         rospy.loginfo(LOG + "Start: tracking afresh%s", " (was tracking)" if was else "")
         return StartResponse(True, "tracking afresh" if not was else "was tracking: restarted afresh")
@@ -106,7 +113,7 @@ class UserTrackerNode:
         with self.lock:
             was = self.tracking
             self.tracking = False
-            self.tracker.reset()
+            self.pipeline.reset()
             self.colour = None
         self._publish(rospy.Time.now())
         self._clear_markers()
@@ -127,6 +134,36 @@ class UserTrackerNode:
             self.camera_key = key
         except ValueError as exc:
             self._warn("camera_info", "camera_info ignored: %s", exc)
+
+    def _on_map(self, msg):
+        info = msg.info
+        try:
+            grid = np.asarray(msg.data, np.int8).reshape(info.height, info.width)
+            static = StaticMap(grid, info.resolution, to_xyyaw(info.origin), self.map_params)
+        except ValueError as exc:
+            self._warn("map", "map ignored: %s", exc)
+            return
+        with self.lock:
+            self.map_frame_of_grid = (msg.header.frame_id or self.values["map_frame"]).lstrip("/")
+            self.pipeline.set_map(static)
+        rospy.loginfo(LOG + "map %dx%d at %.3f m/cell: detections on its walls and poles start no track",
+                      info.width, info.height, info.resolution)
+
+    def _fixed_in_map(self, stamp):
+        """4x4 pose of the fixed frame in the map frame at ``stamp``, or None (no map or no transform:
+        the check is skipped, and diagnostics say so)."""
+        if self.pipeline.map is None:
+            return None
+        try:
+            t = self.tf_buffer.lookup_transform(self.map_frame_of_grid, self.fixed, stamp, rospy.Duration(0.0))
+        except (tf2_ros.LookupException, tf2_ros.ConnectivityException, tf2_ros.ExtrapolationException):
+            try:  # the latest will do: map -> odom moves slowly
+                t = self.tf_buffer.lookup_transform(self.map_frame_of_grid, self.fixed, rospy.Time(0))
+            except (tf2_ros.LookupException, tf2_ros.ConnectivityException, tf2_ros.ExtrapolationException) as exc:
+                self._warn("map_tf", "map check skipped, no transform %s -> %s: %s", self.fixed,
+                           self.map_frame_of_grid, exc)
+                return None
+        return to_matrix(t)
 
     def _on_colour(self, msg):
         try:
@@ -164,15 +201,13 @@ class UserTrackerNode:
             return
         if detections is None:
             return
-        with self.lock:
-            if self.tracking:
-                self.tracker.update(msg.header.stamp.to_sec(), detections, KINECT)
         self.last_depth = time.monotonic()
         self.times.append(time.perf_counter() - started)
         self.stats["depth frames"] += 1
         self._publish(msg.header.stamp)
 
     def _depth_detections(self, msg):
+        """Fuse one depth frame; the detections, or None when it could not be used (warned)."""
         if self.camera is None:
             self._warn("camera_info", "depth frame skipped: no camera_info received yet")
             return None
@@ -186,33 +221,31 @@ class UserTrackerNode:
         camera_pose, base_pose = poses
         colour = self.colour
         rgb = colour[1] if colour is not None and abs(colour[0] - msg.header.stamp.to_sec()) < 0.1 else None
-        people, rejected = depth_people.detect(depth, self.camera, camera_pose, self.depth_params, rgb)
-        self.rejected.update(rejected)
-        out = []
-        for p in people:
-            x, y = base_pose[:2, :2] @ (p.x, p.y) + base_pose[:2, 3]
-            out.append(Detection(float(x), float(y), KINECT, KINECT_STD, p.signature))
-        return out
+        fixed_in_map = self._fixed_in_map(msg.header.stamp)
+        with self.lock:
+            if not self.tracking:
+                return None
+            return self.pipeline.on_depth(msg.header.stamp.to_sec(), depth, self.camera, camera_pose, base_pose, rgb,
+                                          fixed_in_map)
 
     def _on_scan(self, msg):
         self.scan_rate.tick()
-        if not self.tracking:
-            return
         poses = self._poses(msg.header.frame_id, msg.header.stamp)
         if poses is None:
             return
         laser_pose, base_pose = poses
-        try:
-            _, people = laser_legs.detect(msg.ranges, msg.angle_min, msg.angle_increment, msg.range_min,
-                                          msg.range_max, base_pose @ laser_pose, self.leg_params)
-        except ValueError as exc:
-            self._warn("scan", "scan skipped: %s", exc)
-            return
-        dets = [Detection(float(x), float(y), LASER, LASER_STD) for x, y in people]
+        fixed_in_map = self._fixed_in_map(msg.header.stamp)
         with self.lock:
-            if self.tracking:
-                self.tracker.update(msg.header.stamp.to_sec(), dets, LASER)
+            try:  # while stopped, the scan still shows the floor the laser sees free
+                self.pipeline.on_scan(msg.header.stamp.to_sec(), msg.ranges, msg.angle_min, msg.angle_increment,
+                                      msg.range_min, msg.range_max, base_pose @ laser_pose, fixed_in_map,
+                                      track=self.tracking)
+            except ValueError as exc:
+                self._warn("scan", "scan skipped: %s", exc)
+                return
         self.stats["scans"] += 1
+        if not self.tracking:
+            return
         if self.last_depth is None or time.monotonic() - self.last_depth > self.values["publish_on_scans_after"]:
             self._publish(msg.header.stamp)
 
@@ -224,7 +257,7 @@ class UserTrackerNode:
             tracks = self.tracker.published() if self.tracking else []
             now = stamp.to_sec()
             for tr in tracks:
-                x, y = tr.position
+                x, y = tr.output(self.tracker.params.coast_limit)
                 vx, vy = tr.velocity
                 msg.user_ids.append(tr.pid)
                 msg.user_ids_ni.append(tr.ni_id)
@@ -272,12 +305,15 @@ class UserTrackerNode:
         with self.lock:
             tracks = self.tracker.published()
             tentative = len(self.tracker.tracks) - len(tracks)
+        problems = sorted(self.warnings.values())
+        if self.values["use_map"] and self.pipeline.map is None:
+            problems.append("no map yet: ghosts on walls and poles are judged by shape only")
         if not self.tracking:
             stat.summary(OK, "stopped (~Start to track)")
         elif self.camera is None:
-            stat.summary(ERROR, "no camera_info: no depth frame can be used")
-        elif self.warnings:
-            stat.summary(WARN, "; ".join(sorted(self.warnings.values()))[:200])
+            stat.summary(ERROR, "; ".join(["no camera_info: no depth frame can be used", *problems])[:300])
+        elif problems:
+            stat.summary(WARN, "; ".join(problems)[:300])
         else:
             stat.summary(OK, f"tracking {len(tracks)} user(s)")
         self.warnings = {}
@@ -289,7 +325,9 @@ class UserTrackerNode:
         stat.add("depth frame p99 (ms)", f"{1000 * times[int(0.99 * (len(times) - 1))]:.1f}" if times else "")
         for key, value in sorted(self.stats.items()):
             stat.add(key, value)
-        for reason, count in sorted(self.rejected.items()):
+        for sensor, count in sorted(self.pipeline.counts.items()):
+            stat.add(f"detections: {sensor}", count)
+        for reason, count in sorted(self.pipeline.rejected.items()):
             stat.add(f"clusters rejected: {reason}", count)
         return stat
 

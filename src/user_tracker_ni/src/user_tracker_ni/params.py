@@ -1,9 +1,15 @@
-"""The parameters of user_tracker_ni_node, one table (no ROS): the detectors' and the tracker's
-settings under ``~kinect/``, ``~laser/`` and ``~tracker/``, the node's own at the top level."""
+"""The parameters of user_tracker_ni_node, one table (no ROS): the detectors', the free-space
+memory's, the map check's and the tracker's settings under ``~kinect/``, ``~laser/``, ``~free/``,
+``~map/`` and ``~tracker/`` (the fields of their dataclasses), the node's own at the top level."""
+
+import dataclasses
 
 from florence_common.params import FRAME, Param, ParamTable
 from user_tracker_ni.depth_people import DepthParams
+from user_tracker_ni.free_space import FreeSpaceParams
 from user_tracker_ni.laser_legs import LegParams
+from user_tracker_ni.pipeline import PipelineParams
+from user_tracker_ni.static_map import StaticMapParams
 from user_tracker_ni.tracker import TrackerParams
 
 NODE = ParamTable(
@@ -16,6 +22,10 @@ NODE = ParamTable(
           ge=0, le=2),
     Param("publish_on_scans_after", float, 0.5, "with no depth frame for this long, publish after each scan instead",
           unit="s", gt=0),
+    Param("use_map", bool, True, "judge detections against the robot's map (topic map, placed through tf "
+          "map_frame -> fixed_frame): none on thin static structure starts a track; without a map or that "
+          "transform, tracking goes on without the check"),
+    Param("map_frame", FRAME, "map", "the map's frame"),
 )
 
 KINECT = ParamTable(
@@ -31,26 +41,43 @@ KINECT = ParamTable(
     Param("kinect/min_width", float, DepthParams.min_width, "narrowest upper body across the line of sight",
           unit="m", gt=0),
     Param("kinect/max_width", float, DepthParams.max_width, "widest upper body", unit="m", gt=0),
+    Param("kinect/max_depth", float, DepthParams.max_depth,
+          "largest extent of a person's points along the line of sight (walls seen at a grazing angle run on)",
+          unit="m", gt=0),
     Param("kinect/min_roundness", float, DepthParams.min_roundness,
           "least spread of a torso's points across their best vertical plane (flat walls have none)", unit="m", ge=0),
     Param("kinect/noise_at_1m", float, DepthParams.noise_at_1m, "depth noise at 1 m (it grows with the square)",
           unit="m", ge=0),
-    Param("kinect/hips_min", float, DepthParams.hips_min, "bottom of the body band below the upper body", unit="m",
+    Param("kinect/hips_min", float, DepthParams.hips_min,
+          "bottom of the band below the upper body whose colours count as the shirt's (a near person)", unit="m",
           gt=0),
-    Param("kinect/hips_max", float, DepthParams.hips_max, "top of the body band", unit="m", gt=0),
-    Param("kinect/min_hips_width", float, DepthParams.min_hips_width,
-          "least width of the body band (poles of lamps and coat stands have less)", unit="m", gt=0),
-    Param("kinect/body_reach", float, DepthParams.body_reach, "how far around the upper body the body band counts",
+    Param("kinect/hips_max", float, DepthParams.hips_max, "top of that band", unit="m", gt=0),
+    Param("kinect/body_reach", float, DepthParams.body_reach, "how far around the upper body that band counts",
           unit="m", gt=0),
+    Param("kinect/fill_min", float, DepthParams.fill_min,
+          "bottom of the heights below the upper body where a person shows a body (lamp poles do not)", unit="m",
+          ge=0),
+    Param("kinect/fill_max", float, DepthParams.fill_max, "top of those heights", unit="m", gt=0),
+    Param("kinect/min_fill", float, DepthParams.min_fill,
+          "least share of the judged pixels there that show something at the person's distance", ge=0, le=1),
+    Param("kinect/fill_tolerance", float, DepthParams.fill_tolerance,
+          "a pixel within this of the person's distance shows the body", unit="m", gt=0),
+    Param("kinect/min_judged", float, DepthParams.min_judged,
+          "share of those pixels that must be judgeable (not occluded, in the image) for the test", ge=0, le=1),
     Param("kinect/sitting_top", float, DepthParams.sitting_top, "a person whose top is seen below this is sitting",
           unit="m", gt=0),
+    Param("kinect/border", int, DepthParams.border,
+          "clusters touching the image's left or right border within this are not judged", unit="px", ge=0),
 )
 
 LASER = ParamTable(
     Param("laser/cluster_distance", float, LegParams.cluster_distance,
           "largest gap between neighbouring returns of one cluster", unit="m", gt=0),
     Param("laser/min_points", int, LegParams.min_points, "returns in a leg", ge=2),
-    Param("laser/min_width", float, LegParams.min_width, "narrowest leg", unit="m", gt=0),
+    Param("laser/max_gap_beams", int, LegParams.max_gap_beams,
+          "beams in a row without a return that do not split a cluster", ge=0),
+    Param("laser/min_width", float, LegParams.min_width, "narrowest leg (chair legs and lamp poles are thinner)",
+          unit="m", gt=0),
     Param("laser/max_width", float, LegParams.max_width, "widest leg (two legs seen as one included)", unit="m",
           gt=0),
     Param("laser/edge_jump", float, LegParams.edge_jump, "a leg stands this much in front of its neighbours",
@@ -68,7 +95,20 @@ TRACKER = ParamTable(
     Param("tracker/confirm_window", int, TrackerParams.confirm_window, "... within its first this many Kinect frames",
           ge=1),
     Param("tracker/laser_confirm_distance", float, TrackerParams.laser_confirm_distance,
-          "travel that confirms a track the laser started (walking legs)", unit="m", gt=0),
+          "travel that confirms a track the laser started (walking legs) ...", unit="m", gt=0),
+    Param("tracker/laser_free_hits", int, TrackerParams.laser_free_hits,
+          "... with at least this many of its detections in floor the laser saw free before ...", ge=0),
+    Param("tracker/laser_free_share", float, TrackerParams.laser_free_share, "... and at least this share of them, ...",
+          ge=0, le=1),
+    Param("tracker/laser_hit_share", float, TrackerParams.laser_hit_share,
+          "... seen in at least this share of the scans since it started", ge=0, le=1),
+    Param("tracker/max_speed", float, TrackerParams.max_speed,
+          "a tentative track takes no detection farther than this speed allows (no hopping between chair legs)",
+          unit="m/s", gt=0),
+    Param("tracker/unseen_timeout", float, TrackerParams.unseen_timeout,
+          "a track in the Kinect's clear view that it did not detect for this long is dropped", unit="s", gt=0),
+    Param("tracker/coast_limit", float, TrackerParams.coast_limit,
+          "a published position extrapolates at most this long past the track's last update", unit="s", gt=0),
     Param("tracker/timeout", float, TrackerParams.timeout, "a confirmed track no sensor saw for this long is dropped",
           unit="s", gt=0),
     Param("tracker/tentative_timeout", float, TrackerParams.tentative_timeout, "the same for a tentative track",
@@ -77,18 +117,55 @@ TRACKER = ParamTable(
           "a confirmed track waits this long for its colour before it gets a new persistent id", unit="s", ge=0),
     Param("tracker/process_noise", float, TrackerParams.process_noise,
           "white acceleration density of the constant-velocity filter", unit="m^2/s^3", gt=0),
+    Param("tracker/appearance_weight", float, TrackerParams.appearance_weight,
+          "assignment cost of a colour difference of 1 (Bhattacharyya)", unit="m", ge=0),
+    Param("tracker/appearance_gate", float, TrackerParams.appearance_gate,
+          "largest colour difference of a Kinect detection and a track ...", gt=0, le=1),
+    Param("tracker/appearance_after", int, TrackerParams.appearance_after,
+          "... once the track has averaged this many signatures", ge=1),
+    Param("tracker/signature_clearance", float, TrackerParams.signature_clearance,
+          "a track learns a detection's colours only with no other track this near (one blob for two people)",
+          unit="m", ge=0),
     Param("tracker/reid_threshold", float, TrackerParams.reid_threshold,
           "largest colour-signature distance (Bhattacharyya) of a re-identification", gt=0, le=1),
     Param("tracker/max_tracks", int, TrackerParams.max_tracks, "tentative tracks beyond this are not started", ge=1),
 )
 
-PARAMS = NODE + KINECT + LASER + TRACKER
+FREE = ParamTable(
+    Param("free/resolution", float, FreeSpaceParams.resolution, "cell of the laser's free-space memory", unit="m",
+          gt=0),
+    Param("free/size", float, FreeSpaceParams.size, "side of that memory's window around the robot", unit="m", gt=0),
+    Param("free/fade", float, FreeSpaceParams.fade, "time constant of what it remembers", unit="s", gt=0),
+    Param("free/min_free", float, FreeSpaceParams.min_free, "beams through a cell (faded) before it counts as free",
+          gt=0),
+    Param("free/max_occupied_ratio", float, FreeSpaceParams.max_occupied_ratio,
+          "... and the largest share of beams that ended in it", ge=0, lt=1),
+    Param("free/margin", float, FreeSpaceParams.margin, "a beam marks free space up to this short of its end",
+          unit="m", gt=0),
+    Param("free/max_range", float, FreeSpaceParams.max_range, "returns beyond are not used for it", unit="m", gt=0),
+)
+
+MAP = ParamTable(
+    Param("map/clearance", float, StaticMapParams.clearance,
+          "a detection this near thin static structure of the map is on it", unit="m", ge=0),
+    Param("map/thin", float, StaticMapParams.thin,
+          "occupied map cells at most this far from free space are thin structure (walls, poles; not sofas)",
+          unit="m", gt=0),
+    Param("map/occupied", int, StaticMapParams.occupied, "occupancy from which a map cell is occupied", gt=0, le=100),
+)
+
+PARAMS = NODE + KINECT + LASER + FREE + MAP + TRACKER
+GROUPS = {"kinect": DepthParams, "laser": LegParams, "free": FreeSpaceParams, "map": StaticMapParams,
+          "tracker": TrackerParams}
 
 
 def split(values):
-    """(node values, DepthParams, LegParams, TrackerParams) of validated PARAMS values."""
+    """(node values, PipelineParams, StaticMapParams) of validated PARAMS values."""
 
     def sub(prefix, cls):
-        return cls(**{k[len(prefix) + 1:]: v for k, v in values.items() if k.startswith(prefix + "_")}).validate()
+        keys = {f.name: f"{prefix}_{f.name}" for f in dataclasses.fields(cls)}
+        return cls(**{name: values[key] for name, key in keys.items() if key in values}).validate()
 
-    return values, sub("kinect", DepthParams), sub("laser", LegParams), sub("tracker", TrackerParams)
+    pipeline = PipelineParams(sub("kinect", DepthParams), sub("laser", LegParams), sub("free", FreeSpaceParams),
+                              sub("tracker", TrackerParams))
+    return values, pipeline, sub("map", StaticMapParams)

@@ -1,0 +1,121 @@
+"""From sensor readings to tracks (no ROS): the detectors, the free-space memory and the tracker
+wired together once, for the node and for offline evaluations alike.
+
+The caller gives each reading with its time and the poses it needs (4x4, from tf on the robot):
+
+- a depth frame: the image [m], its :class:`depth_people.Camera`, the optical frame's pose in the
+  base frame, the base's pose in the fixed frame, and optionally the registered colour image;
+- a scan: its ranges and geometry and the laser's pose in the fixed frame (the upside-down
+  mounting is in that pose).
+
+Laser detections carry whether they lie in free space (free_space.py, as it was before this scan),
+which the tracker needs to confirm a track the laser alone started; each scan then updates that
+memory. With the robot's map (:meth:`Pipeline.set_map`) and the fixed frame's pose in it at the
+reading's time (``fixed_in_map``), detections on thin static structure are marked
+(static_map.py); without either, nothing is.
+"""
+
+from collections import Counter
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from user_tracker_ni import depth_people, free_space, laser_legs
+from user_tracker_ni.tracker import KINECT, LASER, Detection, Tracker
+
+KINECT_STD, LASER_STD = 0.08, 0.05  # [m] position noise of a detection of each sensor
+
+
+@dataclass
+class PipelineParams:
+    depth: depth_people.DepthParams = field(default_factory=depth_people.DepthParams)
+    legs: laser_legs.LegParams = field(default_factory=laser_legs.LegParams)
+    free: free_space.FreeSpaceParams = field(default_factory=free_space.FreeSpaceParams)
+    tracker: object = None  # tracker.TrackerParams (None: the defaults)
+
+
+class Pipeline:
+    def __init__(self, params=None):
+        self.p = params or PipelineParams()
+        self.tracker = Tracker(self.p.tracker)
+        self.free = free_space.FreeSpace(self.p.free)
+        self.rejected = Counter()  # depth clusters that were not people, by reason
+        self.counts = Counter()  # detections by sensor (and "on the map's structure")
+        self.map = None  # static_map.StaticMap
+
+    def set_map(self, static_map):
+        """The robot's map (a static_map.StaticMap), or None to judge without one."""
+        self.map = static_map
+
+    def _on_structure(self, xy_fixed, fixed_in_map):
+        if self.map is None or fixed_in_map is None or len(xy_fixed) == 0:
+            return np.zeros(len(xy_fixed), bool)
+        m = np.asarray(fixed_in_map, float)
+        xy = np.asarray(xy_fixed, float).reshape(-1, 2)
+        on = self.map.on_structure(xy @ m[:2, :2].T + m[:2, 3])
+        self.counts["on the map's structure"] += int(np.count_nonzero(on))
+        return on
+
+    def reset(self):
+        """Forget every track (Stop); persistent ids are kept, and so is the free-space memory:
+        it is what the laser saw of the floor, not a detection, and it stays valid in the fixed
+        frame while the robot turns (detect_users stops the tracker for each 45 degree step)."""
+        self.tracker.reset()
+
+    def on_depth(self, t, depth, camera, camera_in_base, base_in_fixed, rgb=None, fixed_in_map=None):
+        """Fuse one depth frame taken at ``t`` [s]; returns the detections (fixed frame).
+        ValueError for an image that does not match its camera."""
+        people, rejected = depth_people.detect(depth, camera, camera_in_base, self.p.depth, rgb)
+        self.rejected.update(rejected)
+        base = np.asarray(base_in_fixed, float)
+        xy = np.array([base[:2, :2] @ (p.x, p.y) + base[:2, 3] for p in people]).reshape(-1, 2)
+        on = self._on_structure(xy, fixed_in_map)
+        dets = [Detection(float(x), float(y), KINECT, KINECT_STD, p.signature, on_structure=bool(o))
+                for (x, y), p, o in zip(xy, people, on, strict=True)]
+        self.tracker.update(t, dets, KINECT)
+        self.counts[KINECT] += len(dets)
+        self._note_clear_view(t, depth, camera, camera_in_base, base)
+        return dets
+
+    def _note_clear_view(self, t, depth, camera, camera_in_base, base_in_fixed):
+        """Tell the tracker which confirmed tracks the Kinect had in clear view in this frame."""
+        tracks = [tr for tr in self.tracker.tracks if tr.confirmed]
+        if not tracks:
+            return
+        inverse = np.linalg.inv(base_in_fixed)
+        xy = np.array([tr.position for tr in tracks])
+        in_base = xy @ inverse[:2, :2].T + inverse[:2, 3]
+        clear = depth_people.in_clear_view(depth, camera, camera_in_base, in_base, self.p.depth)
+        # where the Kinect may see a person's colours soon (to its far limit and a little beyond)
+        coming = depth_people.in_clear_view(depth, camera, camera_in_base, in_base, self.p.depth, beyond=0.5)
+        self.tracker.in_clear_view(t, [tr for tr, c in zip(tracks, clear, strict=True) if c],
+                                   [tr for tr, c in zip(tracks, coming, strict=True) if c])
+
+    def on_scan(self, t, ranges, angle_min, angle_increment, range_min, range_max, laser_in_fixed,
+                fixed_in_map=None, track=True):
+        """Fuse one scan taken at ``t`` [s]; returns the detections (fixed frame). ``track=False``
+        (stopped): only the free-space memory learns from it."""
+        pose = np.asarray(laser_in_fixed, float)
+        if not track:
+            ends, hit = laser_legs.beam_ends(ranges, angle_min, angle_increment, range_min, range_max, pose,
+                                             self.p.free.max_range)
+            self.free.update(t, pose[:2, 3], ends, hit)
+            return []
+        xy, valid = laser_legs.scan_points(ranges, angle_min, angle_increment, range_min, range_max, pose)
+        sensor = pose[:2, 3]
+        legs = laser_legs.find_legs(xy, valid, sensor, self.p.legs)
+        people, members = laser_legs.pair_legs(legs, self.p.legs, members=True)
+        leg_free = self.free.in_free_space(legs)
+        free = [all(leg_free[k] for k in m) for m in members]  # a wall end paired with a leg is not free
+        on = self._on_structure(people, fixed_in_map)
+        dets = [Detection(float(x), float(y), LASER, LASER_STD, free=bool(f), on_structure=bool(o))
+                for (x, y), f, o in zip(people, free, on, strict=True)]
+        self.tracker.update(t, dets, LASER)
+        self.counts[LASER] += len(dets)
+        ends, hit = laser_legs.beam_ends(ranges, angle_min, angle_increment, range_min, range_max, pose,
+                                         self.p.free.max_range)
+        self.free.update(t, sensor, ends, hit)
+        return dets
+
+    def published(self):
+        return self.tracker.published()
