@@ -58,3 +58,21 @@ def test_nothing_to_track():
     acc.update(1, {}, {5: (1, 1)})
     s = acc.summary()
     assert s["mota"] is None and s["false_positives"] == 1 and s["false_positives_per_1000_frames"] == 500.0
+
+
+def test_hypotheses_outside_the_region_of_interest_are_no_false_positives_but_are_counted():
+    acc = MotAccumulator()
+    acc.update(0, {"a": (0, 0)}, {1: (0, 0), 2: (-3, 0), 3: (2, 0)}, care={"a": True},
+               hyp_care={1: True, 2: False, 3: True})
+    s = acc.summary()
+    assert (s["false_positives"], s["unmatched_anywhere"]) == (1, 2)
+
+
+def test_ids_out_of_the_region_of_interest_do_not_make_switches():
+    """Out of view a person is carried under a provisional id 9; back in view under her old 7."""
+    acc = MotAccumulator()
+    acc.update(0, {"a": (0, 0)}, {7: (0, 0)}, care={"a": True})
+    acc.update(1, {"a": (3, 3)}, {9: (3, 3)}, care={"a": False})
+    acc.update(2, {"a": (0, 0)}, {7: (0, 0)}, care={"a": True})
+    acc.update(3, {"a": (0, 0)}, {8: (0, 0)}, care={"a": True})
+    assert acc.switch_log == [(3, "a", 7, 8)]

@@ -14,7 +14,11 @@ matched by minimum total distance (Hungarian). Then:
 
 Objects outside the region of interest (``care``: for example within 0.8-4 m and in the Kinect's
 view) are matched like the others, so that their tracks do not count as false positives, but
-neither they nor their matches enter the counts.
+neither they nor their matches enter the counts; in particular the hypothesis an object was last
+matched to, for the id switches, is the last one *inside* the region (a tracker may carry a person
+under a provisional id while they are out of view). Likewise a hypothesis outside the region
+(``hyp_care``) matched to nothing is not a false positive; every unmatched hypothesis, inside the
+region or not, is counted apart (``unmatched_anywhere``: ghost tracks behind the robot say).
 """
 
 from dataclasses import dataclass, field
@@ -32,15 +36,17 @@ class MotAccumulator:
     misses: int = 0
     false_positives: int = 0
     switches: int = 0
+    unmatched_anywhere: int = 0  # unmatched hypotheses, inside the region of interest or not
     distance_sum: float = 0.0  # [m] over the counted matches
     switch_log: list = field(default_factory=list)  # (time, object id, old hypothesis id, new one)
     _previous: dict = field(default_factory=dict)  # object id -> hypothesis id matched last frame
     _last: dict = field(default_factory=dict)  # object id -> hypothesis id matched last (ever)
 
-    def update(self, t, objects, hypotheses, care=None):
+    def update(self, t, objects, hypotheses, care=None, hyp_care=None):
         """One frame at time ``t``. objects: {id: (x, y)}; hypotheses: {id: (x, y)}; care: {object id:
-        bool}, whether the object counts (all count when None). Returns {object id: hypothesis id} of
-        this frame's matches."""
+        bool}, whether the object counts (all count when None); hyp_care: {hypothesis id: bool},
+        whether an unmatched hypothesis is a false positive (all are when None). Returns {object id:
+        hypothesis id} of this frame's matches."""
         self.frames += 1
         o_ids, h_ids = list(objects), list(hypotheses)
         o_xy = np.array([objects[i] for i in o_ids], float).reshape(-1, 2)
@@ -73,10 +79,12 @@ class MotAccumulator:
             if last is not None and last != h:
                 self.switches += 1
                 self.switch_log.append((t, o, last, h))
-        ignored = {matched[o] for o in o_ids if o not in counted and o in matched}
-        self.false_positives += sum(1 for h in h_ids if h not in matched.values() and h not in ignored)
+        unmatched = [h for h in h_ids if h not in matched.values()]
+        self.unmatched_anywhere += len(unmatched)
+        self.false_positives += sum(1 for h in unmatched if hyp_care is None or hyp_care.get(h, True))
         for o, h in matched.items():
-            self._last[o] = h
+            if o in counted:
+                self._last[o] = h
         self._previous = dict(matched)
         return matched
 
@@ -88,4 +96,5 @@ class MotAccumulator:
             "mota": 1.0 - (self.misses + self.false_positives + self.switches) / n if self.objects else None,
             "motp_m": self.distance_sum / self.matches if self.matches else None,
             "false_positives_per_1000_frames": 1000.0 * self.false_positives / max(self.frames, 1),
+            "unmatched_anywhere": self.unmatched_anywhere,
         }

@@ -39,6 +39,31 @@ class KinectView:
         return (d >= self.near) & (d <= self.far) & (bearing <= self.hfov / 2 - self.margin)
 
 
+class LineOfSight:
+    """visible(robot_pose_map, xy_map) for :func:`frames`: the Kinect would see the person's upper
+    body past the world's walls and furniture (florence_sim's scene, without people): of three
+    rays from the camera to the torso (its centre and ``spread`` [m] to either side, ``height``
+    [m] above the floor), at least two reach it. ``camera``: the camera's (x, y, z) in the base
+    frame [m]."""
+
+    def __init__(self, scene, camera=(0.10, -0.02, 0.54), height=1.1, spread=0.15, body_radius=0.2):
+        self.scene, self.camera = scene, np.asarray(camera, float)
+        self.height, self.spread, self.radius = height, spread, body_radius
+
+    def __call__(self, robot_pose, xy):
+        origin = np.array([*pose.transform_points(robot_pose, [self.camera[:2]])[0], self.camera[2]])
+        to = np.array([xy[0], xy[1], self.height]) - origin
+        dist = float(np.hypot(to[0], to[1]))
+        if dist < 1e-6:
+            return True
+        side = np.array([-to[1], to[0], 0.0]) / dist * self.spread
+        targets = np.stack([to, to + side, to - side])
+        lengths = np.linalg.norm(targets, axis=1)
+        t, _ = self.scene.cast_3d(origin, targets / lengths[:, None], float(lengths.max()) + 1.0)
+        clear = t >= lengths - self.radius
+        return int(np.count_nonzero(clear)) >= 2
+
+
 def interpolate_poses(times, poses, t):
     """(x, y, yaw) at time ``t`` from rows of a pose history (linear; yaw along the short way);
     None outside the history."""
@@ -70,6 +95,7 @@ class Frame:
     tracks: dict  # persistent id -> (x, y) in the base frame
     ni: dict  # persistent id -> ni id
     care: dict  # person id -> counts (in view)
+    hyp_care: dict = None  # persistent id -> in view (an unmatched one there is a false positive)
 
 
 def frames(tracker_msgs, people_msgs, truth_poses, odom_poses, view, visible=None):
@@ -99,26 +125,30 @@ def frames(tracker_msgs, people_msgs, truth_poses, odom_poses, view, visible=Non
             care[pid] = bool(in_view[i]) and (visible is None or visible(truth_pose, gt_map[pid]))
         hyp_ids = list(tracks)
         hyp_base = to_base(odom_pose, [tracks[h] for h in hyp_ids])
+        hyp_in_view = view.sees(hyp_base) if hyp_ids else np.zeros(0, bool)
         out.append(Frame(t, {pid: tuple(gt_base[i]) for i, pid in enumerate(ids)},
-                         {h: tuple(hyp_base[j]) for j, h in enumerate(hyp_ids)}, dict(ni), care))
+                         {h: tuple(hyp_base[j]) for j, h in enumerate(hyp_ids)}, dict(ni), care,
+                         {h: bool(hyp_in_view[j]) for j, h in enumerate(hyp_ids)}))
     return out
 
 
 def evaluate(frame_list, gate=0.5, return_gap=1.5):
-    """CLEAR MOT of the frames plus the re-identification of returns: a person matched, then not
-    matched for at least ``return_gap`` [s], then matched again, returned; under their old
-    persistent id or not. Also: the share of frames each person was matched in, whether in view
-    or not (the laser's share beside the robot)."""
+    """CLEAR MOT of the frames plus the re-identification of returns: a person matched in view,
+    then not matched in view for at least ``return_gap`` [s], then matched in view again,
+    returned; under their old persistent id or not. Also: the share of frames each person was
+    matched in, whether in view or not (the laser's share beside the robot)."""
     acc = MotAccumulator(gate=gate)
     last_match = {}  # person -> (t, persistent id)
     returns, returns_same = 0, 0
     matched_frames, present_frames = {}, {}
     for f in frame_list:
-        matches = acc.update(f.t, f.truth, f.tracks, f.care)
+        matches = acc.update(f.t, f.truth, f.tracks, f.care, f.hyp_care)
         for person in f.truth:
             present_frames[person] = present_frames.get(person, 0) + 1
         for person, h in matches.items():
             matched_frames[person] = matched_frames.get(person, 0) + 1
+            if not f.care.get(person, True):
+                continue
             prev = last_match.get(person)
             if prev is not None and f.t - prev[0] >= return_gap:
                 returns += 1

@@ -1,0 +1,36 @@
+"""The people tracker's core against florence_sim's core in one process (people_offline): a
+regression test of the bench's scenarios, judged as bench/people.py judges them, repeatable
+(seed 1). The ROS runs are test_people_sim.py and bench/people.py."""
+
+import pytest
+from florence_eval.people_scenarios import by_name
+
+from florence_eval import people_offline
+
+pytestmark = [pytest.mark.unit, pytest.mark.slow]
+
+
+@pytest.mark.timeout(300)
+@pytest.mark.parametrize("name", ["two_crossing", "leave_and_return", "beside_the_robot", "residents"])
+def test_scenario_meets_the_bench_targets(name):
+    (scenario,) = by_name([name])
+    result = people_offline.evaluate(scenario, people_offline.run(scenario, seed=1))
+    assert result["mota"] >= 0.9, result
+    assert result["motp_m"] <= 0.1, result
+    assert result["id_switches"] == 0, result
+    assert result["false_positives_per_1000_frames"] <= 1.0, result
+    assert result["returns_with_old_id"] == result["returns"], result
+    if scenario.beside:
+        assert result["beside_tracked_share"] >= 0.95, result
+
+
+@pytest.mark.timeout(300)
+def test_clutter_alone_makes_no_track():
+    (scenario,) = by_name(["clutter_only"])
+    result = people_offline.evaluate(scenario, people_offline.run(scenario, seed=1))
+    assert result["tracks_seen"] == [] and result["detections"].get("kinect", 0) == 0, result
+
+
+def test_unknown_scenarios_are_named():
+    with pytest.raises(KeyError, match="no scenario 'nope'"):
+        by_name(["nope"])
