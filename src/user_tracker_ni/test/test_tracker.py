@@ -280,7 +280,7 @@ def test_a_coasting_track_is_published_no_further_than_the_coast_limit():
     rng = np.random.default_rng(14)
     tracker = Tracker(TrackerParams(coast_limit=0.3, timeout=2.0))
     t = 0.0
-    for k in range(30):  # walking at 1 m/s along x
+    for _ in range(30):  # walking at 1 m/s along x
         tracker.update(t, [kinect(1.0 + 1.0 * t, 0.0, RED, rng)], KINECT)
         t += 1 / RATE
     last_x = 1.0 + 1.0 * (t - 1 / RATE)
@@ -307,3 +307,25 @@ def test_a_tentative_track_cannot_hop_faster_than_a_person_walks():
         t += 0.1
     assert tracker.published() == []
     assert max(tr.travelled for tr in tracker.tracks) < 0.1
+
+
+def test_a_person_who_turns_where_the_track_went_on_keeps_the_id():
+    """Red walks away at 1 m/s, is not seen for half a second at the end of the Kinect's range
+    while she turns, and comes back: her track coasted on (constant velocity), a new track starts
+    on her and takes her persistent id from the coasting one, which ends."""
+    rng = np.random.default_rng(15)
+    tracker = Tracker()
+    t = 0.0
+    for _ in range(30):
+        tracker.update(t, [kinect(1.0 + 1.0 * t, 0.0, RED, rng)], KINECT)
+        t += 1 / RATE
+    (red,) = tracker.published()
+    turn_x = 1.0 + 1.0 * t
+    for _ in range(8):  # half a second unseen
+        tracker.update(t, [], KINECT)
+        t += 1 / RATE
+    for k in range(10):  # back toward the robot
+        tracker.update(t, [kinect(turn_x - 0.25 - 1.0 * k / RATE, 0.0, RED, rng)], KINECT)
+        t += 1 / RATE
+    (back,) = tracker.published()
+    assert back.pid == red.pid and back.ni_id != red.ni_id

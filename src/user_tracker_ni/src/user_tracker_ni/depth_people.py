@@ -229,13 +229,15 @@ def detect(depth, camera, camera_pose, params, rgb=None):
 
 
 def in_clear_view(depth, camera, camera_pose, points, params, height=1.1, margin=0.12, clearance=0.3,
-                  beyond=-0.5):
+                  beyond=-0.5, any_height=False):
     """Boolean [N]: the camera would see the upper body of a person standing or sitting at each of
     ``points`` [N, 2] (base frame): the point ``height`` [m] above the floor projects inside the
     image (``margin``: share of the width kept free at either side, where the detector does not
     judge), in range, and the depth image shows nothing nearer than it by ``clearance`` [m] there
     (no occluder). In range: from ``min_range + clearance`` to ``max_range + beyond`` (the default
     keeps half a metre inside the far limit, where the detector is sure to see a person).
+    ``any_height``: in front of the camera whatever the height (a person too near for the image
+    to show the upper body, who will show it on stepping back), judged at the image's nearest row.
     depth: [H, W] [m] (NaN for no return); camera: :class:`Camera`; camera_pose: 4x4 pose of the
     optical frame in the base frame."""
     pts = np.asarray(points, float).reshape(-1, 2)
@@ -250,11 +252,13 @@ def in_clear_view(depth, camera, camera_pose, points, params, height=1.1, margin
         v = camera.fy * optical[:, 1] / z + camera.cy
     lo_u, hi_u = margin * camera.width, (1 - margin) * camera.width - 1
     ok = (z > params.min_range + clearance) & (z < params.max_range + beyond)
-    ok &= (u >= lo_u) & (u <= hi_u) & (v >= 0) & (v <= camera.height - 1)
+    ok &= (u >= lo_u) & (u <= hi_u)
+    if not any_height:
+        ok &= (v >= 0) & (v <= camera.height - 1)
     out = np.zeros(len(pts), bool)
     d = np.asarray(depth)
     for k in np.flatnonzero(ok):  # a handful of tracks: a 5 x 5 patch each
-        ui, vi = round(float(u[k])), round(float(v[k]))
+        ui, vi = round(float(u[k])), min(max(round(float(v[k])), 0), camera.height - 1)
         patch = d[max(vi - 2, 0):vi + 3, max(ui - 2, 0):ui + 3]
         with np.errstate(invalid="ignore"):
             nearer = np.count_nonzero(patch < z[k] - clearance)

@@ -114,15 +114,18 @@ def find_legs(xy, valid, sensor_xy, params):
     return centroid + ray * (CENTRE_SHIFT * width[ok])[:, None]
 
 
-def pair_legs(legs, params, members=False):
+def pair_legs(legs, params, members=False, groups=None):
     """People [P, 2] from leg centres: pairs closer than max_pair_distance meet at their midpoint
-    (the closest pairs first), lone legs stand for a person each. With ``members``, also the leg
-    indices of each person ([(i, j) or (i,)])."""
+    (the closest pairs first), lone legs stand for a person each. ``groups`` [L]: only legs of the
+    same group pair. With ``members``, also the leg indices of each person ([(i, j) or (i,)])."""
     legs = np.asarray(legs, dtype=float).reshape(-1, 2)
     n = len(legs)
     d = distance_matrix(legs, legs)
     i, j = np.triu_indices(n, k=1)
     close = d[i, j] < params.max_pair_distance
+    if groups is not None:
+        groups = np.asarray(groups)
+        close &= groups[i] == groups[j]
     used = np.zeros(n, bool)
     people, who = [], []
     for k in np.argsort(d[i, j][close], kind="stable"):  # a handful of legs: greedy matching

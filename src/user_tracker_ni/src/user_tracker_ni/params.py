@@ -114,7 +114,11 @@ TRACKER = ParamTable(
     Param("tracker/tentative_timeout", float, TrackerParams.tentative_timeout, "the same for a tentative track",
           unit="s", gt=0),
     Param("tracker/id_wait", float, TrackerParams.id_wait,
-          "a confirmed track waits this long for its colour before it gets a new persistent id", unit="s", ge=0),
+          "a confirmed track waits this long out of the Kinect's view for its colour before it gets a provisional "
+          "persistent id ...", unit="s", ge=0),
+    Param("tracker/id_wait_max", float, TrackerParams.id_wait_max,
+          "... and in front of the Kinect (too near for it to show the upper body yet), this long at most", unit="s",
+          ge=0),
     Param("tracker/process_noise", float, TrackerParams.process_noise,
           "white acceleration density of the constant-velocity filter", unit="m^2/s^3", gt=0),
     Param("tracker/appearance_weight", float, TrackerParams.appearance_weight,

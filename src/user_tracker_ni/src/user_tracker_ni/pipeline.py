@@ -86,8 +86,10 @@ class Pipeline:
         xy = np.array([tr.position for tr in tracks])
         in_base = xy @ inverse[:2, :2].T + inverse[:2, 3]
         clear = depth_people.in_clear_view(depth, camera, camera_in_base, in_base, self.p.depth)
-        # where the Kinect may see a person's colours soon (to its far limit and a little beyond)
-        coming = depth_people.in_clear_view(depth, camera, camera_in_base, in_base, self.p.depth, beyond=0.5)
+        # where the Kinect may see a person's colours soon: in front of it, to its far limit and a
+        # little beyond, also too near for the upper body to show yet
+        coming = depth_people.in_clear_view(depth, camera, camera_in_base, in_base, self.p.depth, beyond=0.5,
+                                            any_height=True)
         self.tracker.in_clear_view(t, [tr for tr, c in zip(tracks, clear, strict=True) if c],
                                    [tr for tr, c in zip(tracks, coming, strict=True) if c])
 
@@ -104,12 +106,14 @@ class Pipeline:
         xy, valid = laser_legs.scan_points(ranges, angle_min, angle_increment, range_min, range_max, pose)
         sensor = pose[:2, 3]
         legs = laser_legs.find_legs(xy, valid, sensor, self.p.legs)
-        people, members = laser_legs.pair_legs(legs, self.p.legs, members=True)
+        legs = legs[~self._on_structure(legs, fixed_in_map)]  # a wall's end is no leg
         leg_free = self.free.in_free_space(legs)
-        free = [all(leg_free[k] for k in m) for m in members]  # a wall end paired with a leg is not free
-        on = self._on_structure(people, fixed_in_map)
-        dets = [Detection(float(x), float(y), LASER, LASER_STD, free=bool(f), on_structure=bool(o))
-                for (x, y), f, o in zip(people, free, on, strict=True)]
+        # a leg in floor seen free lately (walking) and one that stands where beams always end (a
+        # door frame's end, with no map) are not one person's
+        people, members = laser_legs.pair_legs(legs, self.p.legs, members=True, groups=leg_free)
+        free = [all(leg_free[k] for k in m) for m in members]
+        dets = [Detection(float(x), float(y), LASER, LASER_STD, free=bool(f))
+                for (x, y), f in zip(people, free, strict=True)]
         self.tracker.update(t, dets, LASER)
         self.counts[LASER] += len(dets)
         ends, hit = laser_legs.beam_ends(ranges, angle_min, angle_increment, range_min, range_max, pose,

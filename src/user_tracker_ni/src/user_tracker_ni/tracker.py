@@ -39,11 +39,13 @@ Life of a track:
 
 Ids: on confirmation a track gets ``ni_id``, a fresh per-appearance number (as OpenNI's user
 ids were), and ``pid``, the persistent id: the gallery's (reid.py) id whose signature matches
-the track's colour signature and that no other live track holds, or a new one. A track
+the track's colour signature and that no other track being seen holds (a track coasting unseen
+for more than ``coast_limit`` gives its id up to a new track of the same colours), or a new one. A track
 confirmed without a signature yet (seen by the laser only: a person walking in beside the robot)
-waits for its first signature for ``id_wait`` out of the Kinect's clear view (in clear view the
-Kinect is about to see who it is), then gets a *provisional* persistent id (a new one) so that
-it is published; it is published only once it has an id. When the Kinect first sees
+waits for its first signature for ``id_wait`` out of the Kinect's view (in front of the Kinect,
+also too near for it to show the upper body yet, the Kinect is about to see who it is: there it
+waits up to ``id_wait_max``), then gets a *provisional* persistent id (a new one) so that it is
+published; it is published only once it has an id. When the Kinect first sees
 the colours of a track with a provisional id, the track is re-identified: it takes the stored
 id its signature matches (one no other live track holds), and the provisional id, which never
 had a signature, is forgotten; with no match the provisional id becomes its own.
@@ -89,7 +91,8 @@ class TrackerParams:
     coast_limit: float = 0.3  # [s] a published position extrapolates at most this long past the last update
     timeout: float = 1.0  # [s] a confirmed track no sensor updated for this long is dropped
     tentative_timeout: float = 0.6  # [s] the same for a tentative track
-    id_wait: float = 1.0  # [s] a confirmed track waits this long for a signature before a new id
+    id_wait: float = 1.0  # [s] a confirmed track waits this long for a signature before a new id ...
+    id_wait_max: float = 2.0  # [s] ... out of the Kinect's view; in front of it, this long at most
     process_noise: float = 1.0  # [m^2/s^3] white acceleration density of the filter
     appearance_weight: float = 0.5  # [m] cost of a colour difference of 1 (Bhattacharyya) in the assignment
     appearance_gate: float = 0.7  # largest colour difference of a Kinect detection and a track ...
@@ -103,8 +106,9 @@ class TrackerParams:
                      "process_noise", "unseen_timeout", "coast_limit"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
-        if not 1 <= self.confirm_hits <= self.confirm_window or self.max_tracks < 1 or self.id_wait < 0:
-            raise ValueError("need 1 <= confirm_hits <= confirm_window, max_tracks >= 1, id_wait >= 0")
+        if not 1 <= self.confirm_hits <= self.confirm_window or self.max_tracks < 1 or not 0 <= self.id_wait \
+                <= self.id_wait_max:
+            raise ValueError("need 1 <= confirm_hits <= confirm_window, max_tracks >= 1, 0 <= id_wait <= id_wait_max")
         if self.laser_free_hits < 0 or not 0 <= self.laser_free_share <= 1 or not 0 <= self.laser_hit_share <= 1:
             raise ValueError("need laser_free_hits >= 0, laser_free_share and laser_hit_share within 0..1")
         if not self.max_speed > 0:
@@ -141,6 +145,7 @@ class Track:
     signatures: int = 0
     sources: set = field(default_factory=set)  # sensors that updated it since the last publication
     updated: tuple | None = None  # ((x, y), (vx, vy)) just after the last update
+    superseded: bool = False  # a newer track of the same person took its persistent id over
 
     @property
     def confirmed(self):
@@ -229,7 +234,8 @@ class Tracker:
 
     def published(self):
         """Confirmed tracks that have a persistent id, by persistent id."""
-        return sorted((tr for tr in self.tracks if tr.confirmed and tr.pid is not None), key=lambda tr: tr.pid)
+        return sorted((tr for tr in self.tracks if tr.confirmed and tr.pid is not None and not tr.superseded),
+                      key=lambda tr: tr.pid)
 
     # --- internals --------------------------------------------------------------------------------------
     def _unambiguous(self, dets, gate):
@@ -318,19 +324,35 @@ class Tracker:
                 track.confirmed_at = track.id_wait_from = t
                 track.ni_id = next(self._ni_ids)
         if track.confirmed and track.pid is None:
-            held = {tr.pid for tr in self.tracks if tr.pid is not None}
             if track.signature is not None:
-                pid, _ = self.gallery.identify(track.signature, exclude=held)
+                pid, _ = self.gallery.identify(track.signature, exclude=self._held(track, t))
+                if pid is not None:
+                    self._take_over(pid, track)
                 track.pid = pid if pid is not None else self.gallery.enroll(track.signature)
-            elif t - track.id_wait_from >= p.id_wait:
+            elif t - track.id_wait_from >= p.id_wait or t - track.confirmed_at >= p.id_wait_max:
                 track.pid = self.gallery.enroll(None)
                 track.provisional = True
 
+    def _held(self, track, t):
+        """Persistent ids a new track cannot take: those of the other tracks that are still being
+        seen. A track coasting unseen for longer than ``coast_limit`` has lost its person: a new
+        track whose colours are that person's takes the id over (the person turned where the
+        coasting track went straight on)."""
+        limit = self.params.coast_limit
+        return {tr.pid for tr in self.tracks
+                if tr is not track and tr.pid is not None and not tr.superseded and t - tr.last_update <= limit}
+
+    def _take_over(self, pid, track):
+        """``track`` takes ``pid`` over from a coasting track that holds it (if any), which ends."""
+        for other in self.tracks:
+            if other is not track and other.pid == pid:
+                other.superseded = True
+
     def _reidentify(self, track):
         """The first signature of a track with a provisional id: take the stored id it matches."""
-        held = {tr.pid for tr in self.tracks if tr is not track and tr.pid is not None}
-        pid, _ = self.gallery.identify(track.signature, exclude=held | {track.pid})
+        pid, _ = self.gallery.identify(track.signature, exclude=self._held(track, track.last_update) | {track.pid})
         if pid is not None:
+            self._take_over(pid, track)
             self.gallery.forget(track.pid)
             track.pid = pid
         track.provisional = False
@@ -341,7 +363,7 @@ class Tracker:
         for track in self.tracks:
             limit = p.timeout if track.confirmed else p.tentative_timeout
             failed = not track.confirmed and track.origin == KINECT and track.kinect_frames >= p.confirm_window
-            if t - track.last_update <= limit and not failed:
+            if t - track.last_update <= limit and not failed and not track.superseded:
                 kept.append(track)
                 self._maybe_confirm(track, t)
-        self.tracks = kept
+        self.tracks = [tr for tr in kept if not tr.superseded]
