@@ -108,13 +108,19 @@ def run_ros(scenarios, rtf):
 def run_offline(scenarios, seeds):
     """Every scenario per seed in-process; ({name: result (seed 1's, with every seed's in 'seeds')},
     {name: plot data of the first seed})."""
+    from user_tracker_ni.pipeline import Pipeline
+
     from florence_eval import people_offline
 
     results, plots = {}, {}
+    pipelines = {}  # one tracker per seed plays every scenario, as the ROS run's one node does
+    for seed in seeds:
+        pipelines[seed] = Pipeline()
+        pipelines[seed].set_map(people_offline.apartment_map())
     for sc in scenarios:
         per_seed = {}
         for seed in seeds:
-            run = people_offline.run(sc, seed=seed)
+            run = people_offline.run(sc, seed=seed, pipeline=pipelines[seed])
             per_seed[seed] = people_offline.evaluate(sc, run)
             if seed == seeds[0]:
                 plots[sc.name] = offline_plot(run)

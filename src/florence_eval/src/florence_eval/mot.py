@@ -26,6 +26,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+LOG_LIMIT = 100  # misses and false positives logged (for a report: when and where)
+
 
 @dataclass
 class MotAccumulator:
@@ -39,6 +41,8 @@ class MotAccumulator:
     unmatched_anywhere: int = 0  # unmatched hypotheses, inside the region of interest or not
     distance_sum: float = 0.0  # [m] over the counted matches
     switch_log: list = field(default_factory=list)  # (time, object id, old hypothesis id, new one)
+    miss_log: list = field(default_factory=list)  # (time, object id) of the first LOG_LIMIT misses
+    false_positive_log: list = field(default_factory=list)  # (time, hypothesis id, (x, y)) likewise
     _previous: dict = field(default_factory=dict)  # object id -> hypothesis id matched last frame
     _last: dict = field(default_factory=dict)  # object id -> hypothesis id matched last (ever)
 
@@ -72,6 +76,8 @@ class MotAccumulator:
             h = matched.get(o)
             if h is None:
                 self.misses += 1
+                if len(self.miss_log) < LOG_LIMIT:
+                    self.miss_log.append((t, o))
                 continue
             self.matches += 1
             self.distance_sum += float(d[o_ids.index(o), h_ids.index(h)])
@@ -81,7 +87,10 @@ class MotAccumulator:
                 self.switch_log.append((t, o, last, h))
         unmatched = [h for h in h_ids if h not in matched.values()]
         self.unmatched_anywhere += len(unmatched)
-        self.false_positives += sum(1 for h in unmatched if hyp_care is None or hyp_care.get(h, True))
+        false = [h for h in unmatched if hyp_care is None or hyp_care.get(h, True)]
+        self.false_positives += len(false)
+        for h in false[:max(0, LOG_LIMIT - len(self.false_positive_log))]:
+            self.false_positive_log.append((t, h, tuple(round(float(v), 3) for v in hypotheses[h])))
         for o, h in matched.items():
             if o in counted:
                 self._last[o] = h

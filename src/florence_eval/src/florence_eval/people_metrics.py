@@ -159,5 +159,7 @@ def evaluate(frame_list, gate=0.5, return_gap=1.5):
         "returns": returns, "returns_with_old_id": returns_same,
         "tracked_share": {p: matched_frames.get(p, 0) / n for p, n in present_frames.items()},
         "switches": [list(s) for s in acc.switch_log],
+        "misses_at": [list(m) for m in acc.miss_log],
+        "false_positives_at": [list(f) for f in acc.false_positive_log],
     })
     return summary

@@ -46,13 +46,15 @@ def _person(spec, pid):
     return person_from_spec({**spec, "id": pid}, _Reader("scenario"), pid)
 
 
-def run(scenario, seed=1, camera=None, params=None, world=None, use_map=True, warmup=1.0):
+def run(scenario, seed=1, camera=None, params=None, world=None, use_map=True, warmup=1.0, pipeline=None):
     """Play ``scenario``; ``params`` a user_tracker_ni.pipeline.PipelineParams (None: the defaults);
     ``camera`` a florence_sim CameraConfig (None: the simulator's default, 160x120). ``use_map``:
     the tracker has the apartment's map, placed through the true pose (perfect localization:
     the ROS runs use amcl's). For ``warmup`` [s] the people walk and the robot stands with its
     tracker stopped (its laser learns the free floor), as in the ROS runs, where the tracker is
-    started a second after the scene is set; the scenario's clock starts after it."""
+    started a second after the scene is set; the scenario's clock starts after it. ``pipeline``:
+    a user_tracker_ni Pipeline to go on with (reset first, as ~Stop and ~Start do: the persistent
+    ids it knows are kept, as in the ROS runs, where one node plays every scenario)."""
     from florence_sim.sensors import CameraConfig
     from florence_sim.sim import TILT_JOINT, SimConfig, Simulator
     from user_tracker_ni.depth_people import Camera
@@ -65,9 +67,13 @@ def run(scenario, seed=1, camera=None, params=None, world=None, use_map=True, wa
         sim.add_person(_person(spec, pid))
     cam = Camera(sim.camera.K, config.camera.width, config.camera.height)
     laser = sim.laser
-    pipeline = Pipeline(params)
-    if use_map:
-        pipeline.set_map(apartment_map())
+    if pipeline is None:
+        pipeline = Pipeline(params)
+        if use_map:
+            pipeline.set_map(apartment_map())
+    else:
+        pipeline.reset()
+        pipeline.free.reset()  # another simulator: its odometry frame starts anew
     out = Run([], [], ([], []), ([], []), pipeline.counts, people_metrics.LineOfSight(sim.world.scene))
     plan = [(v, w, s) for v, w, s in scenario.drive]
     plan_end, command = warmup, (0.0, 0.0)
