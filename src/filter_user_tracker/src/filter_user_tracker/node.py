@@ -18,8 +18,8 @@ import tf2_ros
 
 from filter_user_tracker.stale import keep_mask
 from florence_common.params import FRAME, Param, ParamTable
-from florence_common_ros.convert import to_matrix
 from florence_common_ros.node import read_params, run
+from florence_common_ros.transforms import lookup_matrix
 from user_tracker_ni.msg import TrackedUsers
 
 LOG = "filter_user_tracker: "
@@ -41,13 +41,14 @@ class FilterUserTrackerNode:
         rospy.Subscriber("tracked_users", TrackedUsers, self._on_users, queue_size=5)
 
     def _camera_xy(self, msg):
-        try:
-            t = self.tf_buffer.lookup_transform(msg.frame_id, self.p.camera_frame, msg.stamp, rospy.Duration(0.1))
-        except (tf2_ros.LookupException, tf2_ros.ConnectivityException, tf2_ros.ExtrapolationException) as exc:
-            rospy.logwarn_throttle(5.0, LOG + "no transform %s -> %s (%s): distance rule skipped",
-                                   self.p.camera_frame, msg.frame_id or "''", exc)
+        if not msg.frame_id:
+            rospy.logwarn_throttle(5.0, LOG + "tracked_users without a frame_id: distance rule skipped")
             return None
-        return to_matrix(t)[:2, 3]
+        m, why = lookup_matrix(self.tf_buffer, msg.frame_id, self.p.camera_frame, msg.stamp, 0.1)
+        if m is None:
+            rospy.logwarn_throttle(5.0, LOG + "%s: distance rule skipped", why)
+            return None
+        return m[:2, 3]
 
     def _on_users(self, msg):
         n = len(msg.user_ids)

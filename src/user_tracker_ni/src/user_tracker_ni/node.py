@@ -43,9 +43,10 @@ from nav_msgs.msg import OccupancyGrid
 from sensor_msgs.msg import CameraInfo, Image, LaserScan
 from visualization_msgs.msg import Marker, MarkerArray
 
-from florence_common_ros.convert import depth_image_metres, image_to_array, to_matrix, to_xyyaw, transform_stamped
+from florence_common_ros.convert import depth_image_metres, image_to_array, to_xyyaw, transform_stamped
 from florence_common_ros.diagnostics import ERROR, OK, WARN, Diagnostics
 from florence_common_ros.node import read_params, run
+from florence_common_ros.transforms import lookup_matrix
 from user_tracker_ni import depth_people
 from user_tracker_ni.msg import TrackedUsers
 from user_tracker_ni.params import PARAMS, split
@@ -154,16 +155,12 @@ class UserTrackerNode:
         the check is skipped, and diagnostics say so)."""
         if self.pipeline.map is None:
             return None
-        try:
-            t = self.tf_buffer.lookup_transform(self.map_frame_of_grid, self.fixed, stamp, rospy.Duration(0.0))
-        except (tf2_ros.LookupException, tf2_ros.ConnectivityException, tf2_ros.ExtrapolationException):
-            try:  # the latest will do: map -> odom moves slowly
-                t = self.tf_buffer.lookup_transform(self.map_frame_of_grid, self.fixed, rospy.Time(0))
-            except (tf2_ros.LookupException, tf2_ros.ConnectivityException, tf2_ros.ExtrapolationException) as exc:
-                self._warn("map_tf", "map check skipped, no transform %s -> %s: %s", self.fixed,
-                           self.map_frame_of_grid, exc)
-                return None
-        return to_matrix(t)
+        m, _ = lookup_matrix(self.tf_buffer, self.map_frame_of_grid, self.fixed, stamp)
+        if m is None:  # the latest will do: map -> odom moves slowly
+            m, why = lookup_matrix(self.tf_buffer, self.map_frame_of_grid, self.fixed, rospy.Time(0))
+            if m is None:
+                self._warn("map_tf", "map check skipped, %s", why)
+        return m
 
     def _on_colour(self, msg):
         try:
@@ -173,12 +170,10 @@ class UserTrackerNode:
 
     def _transform(self, target, source, stamp):
         """4x4 pose of ``source`` in ``target`` at ``stamp``, or None (with a warning naming why)."""
-        try:
-            t = self.tf_buffer.lookup_transform(target, source, stamp, rospy.Duration(self.values["tf_timeout"]))
-            return to_matrix(t)
-        except (tf2_ros.LookupException, tf2_ros.ConnectivityException, tf2_ros.ExtrapolationException) as exc:
-            self._warn("tf", "reading skipped, no transform %s -> %s: %s", source, target, exc)
-            return None
+        m, why = lookup_matrix(self.tf_buffer, target, source, stamp, self.values["tf_timeout"])
+        if m is None:
+            self._warn("tf", "reading skipped, %s", why)
+        return m
 
     def _poses(self, frame, stamp):
         """(sensor in base, base in fixed) 4x4 at ``stamp``, or None."""
