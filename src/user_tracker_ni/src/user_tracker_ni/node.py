@@ -31,6 +31,7 @@ colour without depth, NaN/inf in scans) is skipped with a throttled warning that
 callback raises.
 """
 
+import math
 import threading
 import time
 from collections import Counter, deque
@@ -81,6 +82,7 @@ class UserTrackerNode:
         self.stats = Counter()
         self.times = deque(maxlen=200)  # [s] processing time of recent depth frames
         self.warnings = {}
+        self.logged = {}  # kind -> monotonic time it was last logged
 
         self.tf_buffer = tf2_ros.Buffer(cache_time=rospy.Duration(10.0))
         self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
@@ -123,8 +125,12 @@ class UserTrackerNode:
 
     # --- inputs ------------------------------------------------------------------------------------
     def _warn(self, key, text, *args):
+        """Note a problem for diagnostics; log it at most every 5 s per kind (``key``)."""
         self.warnings[key] = text % args if args else text
-        rospy.logwarn_throttle(5.0, LOG + text, *args)
+        now = time.monotonic()
+        if now - self.logged.get(key, -math.inf) >= 5.0:
+            self.logged[key] = now
+            rospy.logwarn(LOG + text, *args)
 
     def _on_info(self, msg):
         key = (tuple(msg.K), msg.width, msg.height)
