@@ -6,10 +6,11 @@ laser passes under."""
 
 import math
 import os
+import time
 
 import numpy as np
 import pytest
-from florence_eval.metrics import cpu_seconds
+from florence_eval.metrics import Stopwatch, cpu_seconds
 from florence_eval.nav_config import move_base_params
 
 from florence_eval import nav_metrics
@@ -126,3 +127,19 @@ def test_move_base_params_are_the_launch_files():
 
 def test_cpu_seconds_of_this_process():
     assert cpu_seconds(os.getpid()) > 0.0
+
+
+def test_stopwatch_keeps_wall_and_cpu_time_apart():
+    watch = Stopwatch()
+    with watch:
+        time.sleep(0.05)  # waiting: wall time, no CPU time
+    with watch:
+        end = time.thread_time() + 0.03
+        while time.thread_time() < end:  # working: CPU time too
+            pass
+    s = watch.summary()
+    assert s["n"] == 2
+    assert watch.wall_ms[0] >= 50.0 and watch.cpu_ms[0] < 10.0
+    assert watch.cpu_ms[1] >= 25.0 and watch.wall_ms[1] >= watch.cpu_ms[1] - 1.0
+    assert s["p99_ms"] >= 50.0 and s["cpu_p99_ms"] >= 25.0
+    assert Stopwatch().summary() == {"n": 0}
