@@ -70,7 +70,7 @@ def first_run(ros_master, rospy_node):
 
 
 def test_gyro_factor_within_one_percent_of_the_truth(first_run):
-    factors, out, truth = first_run
+    factors, out, _truth = first_run
     assert set(factors) == {"gyro_scale_correction", "odom_angular_scale_correction"}, out
     assert factors["gyro_scale_correction"] == pytest.approx(1 / (1 + ERROR), rel=0.01), out
     # florence_sim's wheel angle is its gyro's (no wheel angle error of its own): the same truth
@@ -80,7 +80,7 @@ def test_gyro_factor_within_one_percent_of_the_truth(first_run):
 
 
 def test_the_robot_turned_four_times_on_the_spot(first_run):
-    _, out, truth = first_run
+    _, _out, truth = first_run
     turns = truth.turned / (2 * math.pi)
     assert 3.9 < turns < 4.3, f"{turns:.2f} true turns"
     assert truth.moved < 0.02, f"the robot's centre moved {truth.moved:.3f} m"
