@@ -160,14 +160,14 @@ class SyntheticRobot(Robot):
     DT = 0.01  # [s]
 
     def __init__(self, gyro_error=0.0, odom_error=0.0, bias=0.0, gyro_noise=0.002, range_noise=0.01, yaw=0.05,
-                 distance=1.0, has_gyro=True, has_odom=True, scans=True, wall=True, seed=0):
+                 distance=1.0, has_gyro=True, has_odom=True, scans=True, wall=True, seed=0, t0=0.0):
         self.rng = np.random.default_rng(seed)
-        self.t, self.yaw, self.rate, self.cmd = 0.0, yaw, 0.0, 0.0
+        self.t, self.yaw, self.rate, self.cmd = t0, yaw, 0.0, 0.0
         self.g, self.o = 0.0, 0.0
         self.gyro_error, self.odom_error, self.bias, self.gyro_noise = gyro_error, odom_error, bias, gyro_noise
         self.range_noise, self.distance = range_noise, distance
         self.has_gyro, self.has_odom, self.scans, self.has_wall = has_gyro, has_odom, scans, wall
-        self.next_scan_t = 0.1
+        self.next_scan_t = t0 + 0.1
         self.hidden = []
         self.max_rate = 0.0
         self.stop_after = math.inf  # [s] raise Interrupted after this time
@@ -256,6 +256,12 @@ def test_injected_scale_errors_are_recovered(gyro_error, odom_error, bias):
     again, _ = calibrate(corrected)
     assert again.gyro_factor == pytest.approx(1.0, abs=0.01)
     assert again.odom_factor == pytest.approx(1.0, abs=0.01)
+
+
+def test_on_wall_clock_time():
+    """On the robot the clock reads seconds since 1970: the drift is counted from the start."""
+    result, _ = calibrate(SyntheticRobot(gyro_error=0.05, bias=0.004, t0=1.7e9), speeds=(1.0,), drift_time=5.0)
+    assert result.gyro_factor == pytest.approx(1 / 1.05, rel=0.003)
 
 
 def test_a_large_gyro_error_is_measured_and_flagged():

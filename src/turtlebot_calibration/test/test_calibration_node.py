@@ -11,7 +11,9 @@ from florence_common.processes import rosrun, wait_for
 
 pytestmark = pytest.mark.ros
 
-QUICK = ["_input_timeout:=2.0", "_wall_timeout:=1.0", "_scan_timeout:=1.0", "_imu_calibrate_time:=0.5"]
+NAME = "calibration_test"  # not the launch files' turtlebot_calibration: rosrun leaves the private parameters set
+QUICK = [f"__name:={NAME}", "_input_timeout:=2.0", "_wall_timeout:=1.0", "_scan_timeout:=1.0",
+         "_imu_calibrate_time:=0.5"]
 
 
 class Feeder:
@@ -64,6 +66,13 @@ class Feeder:
         self.sub.unregister()
 
 
+@pytest.fixture(autouse=True)
+def forget_parameters(rospy_node):
+    yield
+    if rospy_node.has_param(f"/{NAME}"):
+        rospy_node.delete_param(f"/{NAME}")
+
+
 def calibrate(ros_master, *args):
     """Run calibrate.py to its end; (exit status, output)."""
     proc = rosrun(ros_master, "turtlebot_calibration", "calibrate.py", "scan:=/scan", "imu:=/imu", *QUICK, *args)
@@ -72,13 +81,6 @@ def calibrate(ros_master, *args):
     finally:
         status = proc.stop()
     return status, proc.output()
-
-
-@pytest.fixture
-def wall_time(rospy_node):
-    """These tests run on wall time: an earlier simulation's /use_sim_time must be gone."""
-    if rospy_node.has_param("/use_sim_time"):
-        rospy_node.delete_param("/use_sim_time")
 
 
 def test_no_scan_and_no_odometry(ros_master, rospy_node, publisher, wall_time):

@@ -16,7 +16,7 @@ from florence_common.processes import roslaunch, wait_for
 pytestmark = pytest.mark.scenario
 
 ERROR = 0.05  # florence_sim's gyro_scale_error
-RTF = 5.0
+RTF = 8.0  # simulated s per wall s asked; on a loaded machine the simulator just runs as fast as it can
 LINE = re.compile(r"Multiply the 'turtlebot_node/(gyro_scale_correction|odom_angular_scale_correction)' "
                   r"parameter with (\d+\.\d{6})\n")
 
@@ -82,7 +82,7 @@ def test_gyro_factor_within_one_percent_of_the_truth(first_run):
 def test_the_robot_turned_four_times_on_the_spot(first_run):
     _, _out, truth = first_run
     turns = truth.turned / (2 * math.pi)
-    assert 3.9 < turns < 4.3, f"{turns:.2f} true turns"
+    assert 3.9 < turns < 4.5, f"{turns:.2f} true turns"  # four turns, plus aligning and stops a little past the wall
     assert truth.moved < 0.02, f"the robot's centre moved {truth.moved:.3f} m"
 
 

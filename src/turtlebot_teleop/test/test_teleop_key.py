@@ -6,6 +6,7 @@ Ctrl-C, a terminal that closes, no terminal). scenario tier: florence_sim behind
 multiplexer and velocity_filter, the robot judged by the simulator's ground truth: it drives
 forward on "i" and stops after the key is released."""
 
+import contextlib
 import itertools
 import math
 import os
@@ -82,12 +83,6 @@ class Commands:
             return list(self.items)
 
 
-@pytest.fixture
-def wall_time(rospy_node):
-    if rospy_node.has_param("/use_sim_time"):
-        rospy_node.delete_param("/use_sim_time")
-
-
 @pytest.mark.ros
 def test_no_terminal_is_a_clear_message(ros_master, wall_time):
     proc = start_teleop(ros_master, None)
@@ -136,21 +131,29 @@ def test_keys_on_a_pty(ros_master, rospy_node, wall_time):
     keyboard.close()
 
 
-@pytest.mark.ros
-def test_sigint_restores_the_terminal_and_stops(ros_master, rospy_node, wall_time):
+@contextlib.contextmanager
+def driving(ros_master, rospy_node, topic, key):
+    """turtlebot_teleop_key on a pty publishing on ``topic``, ``key`` typed and its first command
+    received: (keyboard, commands, process); the process is stopped afterwards."""
     keyboard = Keyboard()
-    commands = Commands(rospy_node, "/teleop_test2/cmd_vel")
-    proc = start_teleop(ros_master, keyboard, "cmd_vel:=/teleop_test2/cmd_vel")
+    commands = Commands(rospy_node, topic)
+    proc = start_teleop(ros_master, keyboard, f"cmd_vel:={topic}")
     try:
         wait_for(lambda: commands.sub.get_num_connections() > 0, 30.0, what="the teleop's publisher")
-        keyboard.type("u")
+        keyboard.type(key)
         wait_for(commands.get, 10.0, what="a command")
-        assert keyboard.modes() != keyboard.before
-        os.killpg(proc.pid, signal.SIGINT)  # what Ctrl-C does under rosrun
-        wait_for(lambda: not proc.running(), 20.0, what="the end on SIGINT")
+        yield keyboard, commands, proc
     finally:
         proc.stop()
         commands.sub.unregister()
+
+
+@pytest.mark.ros
+def test_sigint_restores_the_terminal_and_stops(ros_master, rospy_node, wall_time):
+    with driving(ros_master, rospy_node, "/teleop_test2/cmd_vel", "u") as (keyboard, commands, proc):
+        assert keyboard.modes() != keyboard.before
+        os.killpg(proc.pid, signal.SIGINT)  # what Ctrl-C does under rosrun
+        wait_for(lambda: not proc.running(), 20.0, what="the end on SIGINT")
     assert keyboard.modes() == keyboard.before
     assert commands.get()[-1][1:] == (0.0, 0.0)
     assert "Traceback" not in proc.output()
@@ -159,20 +162,11 @@ def test_sigint_restores_the_terminal_and_stops(ros_master, rospy_node, wall_tim
 
 @pytest.mark.ros
 def test_terminal_that_closes(ros_master, rospy_node, wall_time):
-    keyboard = Keyboard()
-    commands = Commands(rospy_node, "/teleop_test3/cmd_vel")
-    proc = start_teleop(ros_master, keyboard, "cmd_vel:=/teleop_test3/cmd_vel")
-    try:
-        wait_for(lambda: commands.sub.get_num_connections() > 0, 30.0, what="the teleop's publisher")
-        keyboard.type("i")
-        wait_for(commands.get, 10.0, what="a command")
+    with driving(ros_master, rospy_node, "/teleop_test3/cmd_vel", "i") as (keyboard, commands, proc):
         keyboard.close()  # the window closes while the robot drives
         wait_for(lambda: not proc.running(), 20.0, what="the end when the terminal closed")
-    finally:
-        status = proc.stop()
-        commands.sub.unregister()
     out = proc.output()
-    assert status == 1, out
+    assert proc.proc.returncode == 1, out
     assert "the terminal closed" in out and "robot stopped" in out
     assert "Traceback" not in out
     assert commands.get()[-1][1:] == (0.0, 0.0)

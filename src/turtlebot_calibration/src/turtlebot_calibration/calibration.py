@@ -205,13 +205,14 @@ class Calibrator:
         self.has_gyro = robot.gyro() is not None
         self.has_odom = robot.odom() is not None
         self.drift = None  # [rad/s]
+        self.t0 = robot.now()  # [s] drift is counted from here (wall-clock seconds since 1970 are too large)
         self.estimate = 1.0  # best gyro (or odometry) factor so far: the turns' target is corrected by it
 
     # --- readings -------------------------------------------------------------------------------
     def _counter(self):
         """The heading that counts a turn: the gyro's (drift removed), else the odometry's."""
         if self.has_gyro:
-            return self.robot.gyro() - (self.drift or 0.0) * self.robot.now()
+            return self.robot.gyro() - (self.drift or 0.0) * (self.robot.now() - self.t0)
         return self.robot.odom()
 
     def wall(self, timeout=None):
