@@ -160,7 +160,7 @@ class SyntheticRobot(Robot):
     DT = 0.01  # [s]
 
     def __init__(self, gyro_error=0.0, odom_error=0.0, bias=0.0, gyro_noise=0.002, range_noise=0.01, yaw=0.05,
-                 distance=1.0, has_gyro=True, has_odom=True, scans=True, wall=True, seed=0, t0=0.0):
+                 distance=1.0, has_gyro=True, has_odom=True, scans=True, wall=True, seed=0, t0=0.0, lag=0.0):
         self.rng = np.random.default_rng(seed)
         self.t, self.yaw, self.rate, self.cmd = t0, yaw, 0.0, 0.0
         self.g, self.o = 0.0, 0.0
@@ -171,6 +171,8 @@ class SyntheticRobot(Robot):
         self.hidden = []
         self.max_rate = 0.0
         self.stop_after = math.inf  # [s] raise Interrupted after this time
+        self.lag = lag  # [s] a command takes effect this late (a starved node, a busy simulator)
+        self.pending = []  # (time it takes effect, rate)
 
     def hide(self, t0, t1, width=0.25):
         """A person stands 0.6 m in front between times t0 and t1, hiding the wall within +-width [m]."""
@@ -181,6 +183,8 @@ class SyntheticRobot(Robot):
 
     def _step(self):
         dt = self.DT
+        while self.pending and self.pending[0][0] <= self.t:
+            self.cmd = self.pending.pop(0)[1]
         self.rate += max(-4 * dt, min(4 * dt, self.cmd - self.rate))
         self.yaw += self.rate * dt
         rate = self.rate * (1 + self.gyro_error) + self.bias
@@ -198,7 +202,10 @@ class SyntheticRobot(Robot):
             self._step()
 
     def command(self, angular):
-        self.cmd = angular
+        if self.lag:
+            self.pending.append((self.t + self.lag, angular))
+        else:
+            self.cmd = angular
 
     def next_scan(self, timeout):
         if not self.scans:
@@ -270,6 +277,15 @@ def test_a_large_gyro_error_is_measured_and_flagged():
     assert result.gyro_factor == pytest.approx(1 / 1.4, rel=0.005)
     assert any("out of view after the turn at 0.70" in line for line in lines)  # the first turn stops 100 deg short
     assert any("gyro_measurement_range" in line for line in lines if line.startswith("W "))
+
+
+def test_a_base_that_reacts_late_overshoots_and_turns_back():
+    """Commands taking effect 1.5 s late (a busy machine running the simulator fast): the turn at
+    1.5 rad/s stops far past the wall, out of the fit's view; the robot turns back."""
+    robot = SyntheticRobot(gyro_error=0.05, lag=1.5)
+    result, lines = calibrate(robot, speeds=(1.5,), drift_time=5.0)
+    assert any("out of view after the turn at 1.50 rad/s" in line for line in lines)
+    assert result.gyro_factor == pytest.approx(1 / 1.05, rel=0.005)
 
 
 def test_the_first_turn_starts_square_to_the_wall():

@@ -16,7 +16,7 @@ from florence_common.processes import roslaunch, wait_for
 pytestmark = pytest.mark.scenario
 
 ERROR = 0.05  # florence_sim's gyro_scale_error
-RTF = 8.0  # simulated s per wall s asked; on a loaded machine the simulator just runs as fast as it can
+RTF = 5.0  # simulated s per wall s asked (the calibration node reacts RTF times later in simulated time)
 LINE = re.compile(r"Multiply the 'turtlebot_node/(gyro_scale_correction|odom_angular_scale_correction)' "
                   r"parameter with (\d+\.\d{6})\n")
 

@@ -303,28 +303,36 @@ class Calibrator:
         self.report(f" ... imu drift is {math.degrees(drift):f} degrees per second")
         return drift
 
-    def turn(self, speed, start):
-        """One full turn counter-clockwise at ``speed`` [rad/s] from rest at ``start`` (a Heading),
-        ending where it started (the target corrected by the factor estimated so far)."""
+    def _rotate(self, angle, speed, what):
+        """Turn on the spot by ``angle`` [rad, as the counter counts; > 0 counter-clockwise] at up to
+        ``speed`` [rad/s], slowing down near the end; stop and settle. Returns the counter's change."""
         cfg = self.cfg
-        target = TWO_PI / self.estimate  # [rad] in the counter's units
+        sign = 1.0 if angle >= 0 else -1.0
         begin = self._counter()
-        allowed = cfg.turn_timeout_factor * (TWO_PI / speed + 2.0)  # [s]
+        allowed = cfg.turn_timeout_factor * (abs(angle) / speed + 2.0)  # [s]
         t_end = self.robot.now() + allowed
         while True:
-            turned = self._counter() - begin
-            rate = turn_rate(target - turned, speed, cfg.decel * self.estimate, cfg.min_speed)
+            turned = (self._counter() - begin) * sign
+            rate = turn_rate(abs(angle) - turned, speed, cfg.decel * self.estimate, cfg.min_speed)
             if rate == 0.0:
                 break
             if self.robot.now() > t_end:
                 self.robot.command(0.0)
-                raise CalibrationError(f"the turn at {speed:.2f} rad/s did not complete in "
-                                       f"{allowed:.0f} s (turned {math.degrees(turned):.0f} deg by the "
+                raise CalibrationError(f"{what} did not complete in {allowed:.0f} s (turned "
+                                       f"{math.degrees(turned):.0f} of {math.degrees(abs(angle)):.0f} deg by the "
                                        f"{'gyro' if self.has_gyro else 'odometry'}): is the robot stuck?")
-            self.robot.command(rate)
+            self.robot.command(sign * rate)
             self.robot.sleep(cfg.control_period)
         self.robot.command(0.0)
-        self._find_wall(speed)
+        self._settle()
+        return self._counter() - begin
+
+    def turn(self, speed, start):
+        """One full turn counter-clockwise at ``speed`` [rad/s] from rest at ``start`` (a Heading),
+        ending where it started (the target corrected by the factor estimated so far)."""
+        target = TWO_PI / self.estimate  # [rad] in the counter's units
+        turned = self._rotate(target, speed, f"the turn at {speed:.2f} rad/s")
+        self._find_wall(speed, turned - target)
         end = self.heading()
         gyro_delta = odom_delta = None
         if self.has_gyro:
@@ -336,15 +344,23 @@ class Calibrator:
         return Turn(speed=speed, start=start, end=end, scan_delta=scan_delta, gyro_delta=gyro_delta,
                     odom_delta=odom_delta)
 
-    def _find_wall(self, speed):
-        """After a turn, with the wall out of view (a scale error of tens of percent stops the turn
-        far from where it began), turn on counter-clockwise until the wall is back in front."""
+    def _find_wall(self, speed, overshoot):
+        """After a turn, with the wall out of view: turn back by the ``overshoot`` [rad, counter] past
+        the target (a base that reacts late); if the wall is still not there (a scale error of tens of
+        percent stops the turn far from where it began), turn on counter-clockwise until it is."""
         cfg = self.cfg
         try:
             self.wall(timeout=cfg.settle_time)
             return
         except NoWallError as exc:
-            self.report(f"The wall is out of view after the turn at {speed:.2f} rad/s ({exc}): turning on")
+            self.report(f"The wall is out of view after the turn at {speed:.2f} rad/s ({exc}): looking for it")
+        if abs(overshoot) > cfg.align_tolerance:
+            self._rotate(-overshoot, cfg.align_speed, "turning back to the wall")
+            try:
+                self.wall(timeout=cfg.settle_time)
+                return
+            except NoWallError:
+                pass
         begin = self._counter()
         while True:
             stamp, points = self.robot.next_scan(cfg.scan_timeout)

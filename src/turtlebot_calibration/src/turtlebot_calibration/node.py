@@ -104,8 +104,10 @@ class RosRobot(Robot):
         self.pub = rospy.Publisher("cmd_vel", Twist, queue_size=1)
         self.subs = [
             rospy.Subscriber("scan", LaserScan, self._on_scan, queue_size=2),
-            rospy.Subscriber("imu", Imu, self._on_imu, queue_size=20),
-            rospy.Subscriber("turtlebot_node/sensor_state", TurtlebotSensorState, self._on_state, queue_size=20),
+            rospy.Subscriber("imu", Imu, self._on_imu, queue_size=200),
+            # angle increments: a dropped message is a lost angle, so a long queue (10 Hz on the robot;
+            # a simulator faster than real time on a busy machine must not overflow it)
+            rospy.Subscriber("turtlebot_node/sensor_state", TurtlebotSensorState, self._on_state, queue_size=1000),
         ]
 
     # --- callbacks -----------------------------------------------------------------------------
