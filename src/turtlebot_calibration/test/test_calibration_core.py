@@ -9,6 +9,7 @@ from turtlebot_calibration.calibration import (
     CalibrationConfig,
     CalibrationError,
     Calibrator,
+    GapCounter,
     Interrupted,
     Robot,
     Turn,
@@ -143,6 +144,21 @@ def test_turn_rate_slows_down_near_the_end():
     assert turn_rate(-0.1, 1.5, 1.0, 0.1) == 0.0
 
 
+def test_gap_counter_finds_lost_messages():
+    rng = np.random.default_rng(2)
+    stamps = list(np.cumsum(0.1 + rng.uniform(-0.03, 0.03, 100)))  # 10 Hz with 30 % jitter
+    counter = GapCounter()
+    for t in stamps:
+        counter.add(t)
+    assert counter.lost == 0
+    for t in (stamps[-1] + 0.3, stamps[-1] + 0.4):  # two missing before this one
+        counter.add(t)
+    assert counter.lost == 2
+    for t in (1.0, 1.1, 1.2, 1.3, 1.4, 1.5, 1.6):  # the clock went back (a new simulation): no loss
+        counter.add(t)
+    assert counter.lost == 2
+
+
 def test_factor_is_one_over_the_mean_ratio():
     assert factor([1.05, 1.05]) == pytest.approx(1 / 1.05)
     assert factor([None, 0.9]) == pytest.approx(1 / 0.9)
@@ -172,6 +188,8 @@ class SyntheticRobot(Robot):
         self.max_rate = 0.0
         self.stop_after = math.inf  # [s] raise Interrupted after this time
         self.lag = lag  # [s] a command takes effect this late (a starved node, a busy simulator)
+        self.dropped = []  # (t0, t1): odometry messages lost between these times
+        self.lost = 0
         self.pending = []  # (time it takes effect, rate)
 
     def hide(self, t0, t1, width=0.25):
@@ -190,7 +208,10 @@ class SyntheticRobot(Robot):
         rate = self.rate * (1 + self.gyro_error) + self.bias
         rate += self.rng.normal(0.0, self.gyro_noise / math.sqrt(dt)) if self.gyro_noise else 0.0
         self.g += rate * dt
-        self.o += self.rate * (1 + self.odom_error) * dt
+        if any(t0 <= self.t < t1 for t0, t1 in self.dropped):
+            self.lost += 1  # one message a step: its increment never arrives
+        else:
+            self.o += self.rate * (1 + self.odom_error) * dt
         self.t += dt
         self.max_rate = max(self.max_rate, abs(self.rate))
         if self.t > self.stop_after:
@@ -229,6 +250,9 @@ class SyntheticRobot(Robot):
 
     def odom(self):
         return self.o if self.has_odom else None
+
+    def odom_lost(self):
+        return self.lost
 
 
 def calibrate(robot, **config):
@@ -286,6 +310,18 @@ def test_a_base_that_reacts_late_overshoots_and_turns_back():
     result, lines = calibrate(robot, speeds=(1.5,), drift_time=5.0)
     assert any("out of view after the turn at 1.50 rad/s" in line for line in lines)
     assert result.gyro_factor == pytest.approx(1 / 1.05, rel=0.005)
+
+
+def test_lost_odometry_messages_leave_their_turn_out():
+    """A busy machine drops odometry messages (each an angle increment) in the second turn: that
+    turn's odometry is not used, the other three give the factor."""
+    robot = SyntheticRobot(gyro_error=0.05, odom_error=0.03)
+    robot.dropped.append((42.0, 42.5))  # during the turn at 0.7 rad/s
+    result, lines = calibrate(robot)
+    assert [t.odom_delta is None for t in result.turns] == [False, True, False, False]
+    assert any("lost during the turn at 0.70 rad/s" in line for line in lines)
+    assert result.odom_factor == pytest.approx(1 / 1.03, rel=0.003)
+    assert result.gyro_factor == pytest.approx(1 / 1.05, rel=0.003)
 
 
 def test_the_first_turn_starts_square_to_the_wall():

@@ -27,6 +27,7 @@ offline benchmark (florence_sim's core) and the unit tests (a synthetic robot) r
 
 import logging
 import math
+from collections import deque
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -87,6 +88,11 @@ class Robot:
         None when there is none."""
         raise NotImplementedError
 
+    def odom_lost(self):
+        """How many odometry messages went missing so far (each carries an angle increment: a lost
+        one is a lost angle). A robot that cannot tell says 0."""
+        return 0
+
 
 @dataclass(frozen=True)
 class CalibrationConfig:
@@ -135,6 +141,7 @@ class Heading:
     gyro: float | None  # [rad] unwrapped gyro heading
     odom: float | None  # [rad] unwrapped odometry heading
     distance: float  # [m] to the wall
+    odom_lost: int = 0  # odometry messages lost so far
 
 
 @dataclass(frozen=True)
@@ -169,6 +176,30 @@ class Result:
         ratios = [getattr(t, f"{which}_ratio") for t in self.turns]
         factors = [1.0 / r for r in ratios if r]
         return max(factors) - min(factors) if len(factors) > 1 else 0.0
+
+
+class GapCounter:
+    """Counts the messages missing from a stream that should arrive at a steady rate (turtlebot_node's
+    ~sensor_state, each carrying the angle since the one before): a gap between stamps of more than
+    ``factor`` times the median of the recent gaps is (gap / median - 1) lost messages. A stamp that
+    goes back (a simulator restarted) starts over."""
+
+    def __init__(self, history=50, min_history=5, factor=1.6):
+        self.gaps = deque(maxlen=history)  # [s]
+        self.min_history, self.factor = min_history, factor
+        self.last = None  # [s]
+        self.lost = 0
+
+    def add(self, stamp):
+        if self.last is not None and stamp < self.last:
+            self.gaps.clear()
+        elif self.last is not None and stamp > self.last:
+            gap = stamp - self.last
+            self.gaps.append(gap)
+            period = float(np.median(self.gaps))
+            if len(self.gaps) >= self.min_history and gap > self.factor * period:
+                self.lost += round(gap / period) - 1
+        self.last = stamp
 
 
 def scan_turn(wall_start, wall_end, expected):
@@ -250,7 +281,7 @@ class Calibrator:
         return Heading(t=float(np.mean(stamps)), wall=float(np.mean(angles)), wall_spread=float(np.std(angles)),
                        gyro=None if gyro0 is None or gyro1 is None else (gyro0 + gyro1) / 2.0,
                        odom=None if odom0 is None or odom1 is None else (odom0 + odom1) / 2.0,
-                       distance=float(np.mean(distances)))
+                       distance=float(np.mean(distances)), odom_lost=self.robot.odom_lost())
 
     def _settle(self):
         """Wait, stopped, until the heading changes by less than still_tolerance over settle_time."""
@@ -338,8 +369,16 @@ class Calibrator:
         if self.has_gyro:
             gyro_delta = end.gyro - start.gyro - self.drift * (end.t - start.t)
         if self.has_odom:
-            odom_delta = end.odom - start.odom
+            lost = end.odom_lost - start.odom_lost
+            if lost:
+                self.warn(f"{lost} odometry message(s) lost during the turn at {speed:.2f} rad/s: its odometry "
+                          "is not used")
+            else:
+                odom_delta = end.odom - start.odom
         expected = gyro_delta if gyro_delta is not None else odom_delta
+        if expected is None:
+            raise CalibrationError(f"odometry messages were lost during the turn at {speed:.2f} rad/s and there "
+                                   "is no gyro: the turn cannot be counted")
         scan_delta = scan_turn(start.wall, end.wall, expected * self.estimate)
         return Turn(speed=speed, start=start, end=end, scan_delta=scan_delta, gyro_delta=gyro_delta,
                     odom_delta=odom_delta)
@@ -420,6 +459,8 @@ class Calibrator:
     def _check(self, result):
         """Warn about figures that need a look (they are printed all the same)."""
         cfg = self.cfg
+        if self.has_odom and result.odom_factor is None:
+            self.warn("odometry messages were lost in every turn: no odometry factor; calibrate again")
         for which, value in (("gyro", result.gyro_factor), ("odom", result.odom_factor)):
             if value is None:
                 continue

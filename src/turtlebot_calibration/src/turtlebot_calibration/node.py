@@ -45,6 +45,7 @@ from turtlebot_calibration.calibration import (
     CalibrationConfig,
     CalibrationError,
     Calibrator,
+    GapCounter,
     Interrupted,
     Robot,
     result_lines,
@@ -99,6 +100,7 @@ class RosRobot(Robot):
         self.gyro_heading = None  # [rad] unwrapped
         self.gyro_last = None  # [rad] last yaw
         self.wheel_heading = None  # [rad] raw sum of ~sensor_state angles
+        self.state_gaps = GapCounter()  # ~sensor_state messages missing
         self.tf_buffer = tf2_ros.Buffer()
         self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
         self.pub = rospy.Publisher("cmd_vel", Twist, queue_size=1)
@@ -137,8 +139,12 @@ class RosRobot(Robot):
         if not math.isfinite(msg.angle):
             rospy.logwarn_throttle(5.0, LOG + "sensor_state with a non-finite angle skipped")
             return
+        stamp = msg.header.stamp.to_sec()
         with self.cond:
             self.wheel_heading = (self.wheel_heading or 0.0) + msg.angle
+            # each message carries the angle since the one before: count the ones a busy publisher or
+            # subscriber dropped (the turn's odometry is then not used)
+            self.state_gaps.add(stamp)
 
     # --- Robot ---------------------------------------------------------------------------------
     def now(self):
@@ -199,6 +205,10 @@ class RosRobot(Robot):
     def odom(self):
         with self.cond:
             return None if self.wheel_heading is None else self.wheel_heading * self.odom_correction
+
+    def odom_lost(self):
+        with self.cond:
+            return self.state_gaps.lost
 
     def stop(self):
         publish_stop(self.pub, wait=0.1)
