@@ -88,6 +88,12 @@ class Robot:
         None when there is none."""
         raise NotImplementedError
 
+    def sync(self, t, timeout):
+        """Wait until the gyro and odometry readings include every message stamped up to time ``t``
+        (a node that lags behind its messages catches up), at most ``timeout`` [s]; None when they
+        do, else why not (a sensor gone silent). Readings that are always current return None."""
+        return None
+
     def odom_lost(self):
         """How many odometry messages went missing so far (each carries an angle increment: a lost
         one is a lost angle). A robot that cannot tell says 0."""
@@ -240,6 +246,13 @@ class Calibrator:
         self.estimate = 1.0  # best gyro (or odometry) factor so far: the turns' target is corrected by it
 
     # --- readings -------------------------------------------------------------------------------
+    def _sync(self, lag=0.0):
+        """Gyro and odometry current up to ``lag`` [s] ago, or CalibrationError (a silent sensor)."""
+        why = self.robot.sync(self.robot.now() - lag, self.cfg.scan_timeout)
+        if why is not None:
+            self.robot.command(0.0)
+            raise CalibrationError(why)
+
     def _counter(self):
         """The heading that counts a turn: the gyro's (drift removed), else the odometry's."""
         if self.has_gyro:
@@ -270,6 +283,7 @@ class Calibrator:
         cfg = self.cfg
         self.robot.command(0.0)
         self._settle()
+        self._sync()
         gyro0, odom0 = self.robot.gyro(), self.robot.odom()
         stamps, angles, distances = [], [], []
         while len(angles) < cfg.scan_samples:
@@ -277,6 +291,7 @@ class Calibrator:
             stamps.append(stamp)
             angles.append(wall.angle)
             distances.append(wall.distance)
+        self._sync()
         gyro1, odom1 = self.robot.gyro(), self.robot.odom()
         return Heading(t=float(np.mean(stamps)), wall=float(np.mean(angles)), wall_spread=float(np.std(angles)),
                        gyro=None if gyro0 is None or gyro1 is None else (gyro0 + gyro1) / 2.0,
@@ -287,10 +302,12 @@ class Calibrator:
         """Wait, stopped, until the heading changes by less than still_tolerance over settle_time."""
         cfg = self.cfg
         deadline = self.robot.now() + 10.0 * cfg.settle_time
+        self._sync()
         before = self._counter()
         while True:
             self.robot.command(0.0)
             self.robot.sleep(cfg.settle_time)
+            self._sync()
             after = self._counter()
             if before is None or after is None or abs(after - before) <= cfg.still_tolerance:
                 return
@@ -324,11 +341,13 @@ class Calibrator:
             return None
         self.report("Estimating imu drift")
         self.robot.command(0.0)
+        self._sync()
         t0, g0 = self.robot.now(), self.robot.gyro()
         end = t0 + cfg.drift_time
         while (remaining := end - self.robot.now()) > 1e-3:
             self.robot.command(0.0)
             self.robot.sleep(min(0.5, remaining))
+        self._sync()
         t1, g1 = self.robot.now(), self.robot.gyro()
         drift = (g1 - g0) / (t1 - t0)
         self.report(f" ... imu drift is {math.degrees(drift):f} degrees per second")
@@ -343,6 +362,7 @@ class Calibrator:
         allowed = cfg.turn_timeout_factor * (abs(angle) / speed + 2.0)  # [s]
         t_end = self.robot.now() + allowed
         while True:
+            self._sync(lag=cfg.scan_timeout)  # the gyro (or odometry) still speaks
             turned = (self._counter() - begin) * sign
             rate = turn_rate(abs(angle) - turned, speed, cfg.decel * self.estimate, cfg.min_speed)
             if rate == 0.0:

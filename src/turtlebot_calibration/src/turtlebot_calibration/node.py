@@ -101,6 +101,7 @@ class RosRobot(Robot):
         self.gyro_last = None  # [rad] last yaw
         self.wheel_heading = None  # [rad] raw sum of ~sensor_state angles
         self.state_gaps = GapCounter()  # ~sensor_state messages missing
+        self.imu_stamp = self.state_stamp = None  # [s] of the last message of each
         self.tf_buffer = tf2_ros.Buffer()
         self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
         self.pub = rospy.Publisher("cmd_vel", Twist, queue_size=1)
@@ -134,17 +135,21 @@ class RosRobot(Robot):
             else:
                 self.gyro_heading += diff(yaw, self.gyro_last)
             self.gyro_last = yaw
+            self.imu_stamp = msg.header.stamp.to_sec() or rospy.get_time()  # unstamped: as received
+            self.cond.notify_all()
 
     def _on_state(self, msg):
         if not math.isfinite(msg.angle):
             rospy.logwarn_throttle(5.0, LOG + "sensor_state with a non-finite angle skipped")
             return
-        stamp = msg.header.stamp.to_sec()
+        stamp = msg.header.stamp.to_sec() or rospy.get_time()  # unstamped: as received
         with self.cond:
             self.wheel_heading = (self.wheel_heading or 0.0) + msg.angle
             # each message carries the angle since the one before: count the ones a busy publisher or
             # subscriber dropped (the turn's odometry is then not used)
             self.state_gaps.add(stamp)
+            self.state_stamp = stamp
+            self.cond.notify_all()
 
     # --- Robot ---------------------------------------------------------------------------------
     def now(self):
@@ -205,6 +210,31 @@ class RosRobot(Robot):
     def odom(self):
         with self.cond:
             return None if self.wheel_heading is None else self.wheel_heading * self.odom_correction
+
+    def sync(self, t, timeout):
+        """Wait until the gyro's and ~sensor_state's latest stamps reach ``t`` (their callbacks caught
+        up with the clock), ``timeout`` [s] of ROS time at most (and 5 x that of wall time)."""
+        deadline = rospy.get_time() + timeout
+        wall_deadline = time.monotonic() + max(5.0 * timeout, 10.0)
+
+        def behind():
+            late = []
+            if self.gyro_heading is not None and self.imu_stamp < t:
+                late.append(f"no gyro message on {rospy.resolve_name('imu')} for "
+                            f"{rospy.get_time() - self.imu_stamp:.1f} s")
+            if self.wheel_heading is not None and self.state_stamp < t:
+                late.append(f"no odometry on {rospy.resolve_name('turtlebot_node/sensor_state')} for "
+                            f"{rospy.get_time() - self.state_stamp:.1f} s")
+            return late
+
+        with self.cond:
+            while late := behind():
+                if rospy.is_shutdown():
+                    raise Interrupted("shutting down")
+                if rospy.get_time() >= deadline or time.monotonic() >= wall_deadline:
+                    return " and ".join(late) + ": is turtlebot_node (or the simulator) still running?"
+                self.cond.wait(0.05)
+        return None
 
     def odom_lost(self):
         with self.cond:
