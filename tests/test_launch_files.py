@@ -21,7 +21,6 @@ pytestmark = pytest.mark.unit
 PENDING = {
     ("openni_camera", "openni_camera_node"): "not scheduled yet (real Kinect driver)",
     ("kinect_aux", "kinect_aux_node"): "not scheduled yet (real Kinect tilt driver)",
-    ("turtlebot_calibration", "calibrate.py"): "not scheduled yet",
     ("florence_locator", "florence_locator_node"): "not scheduled yet",
     ("detect_users", "detect_users_node"): "not scheduled yet",
     ("approach_me_map", "approach_me_map_node"): "not scheduled yet",

@@ -84,3 +84,25 @@ def test_stop_kills_a_descendant_in_its_own_session_that_ignores_signals(tmp_pat
         wait_for(lambda: not pid_alive(child_pid), 10, what="the child gone")
     finally:
         proc.stop()
+
+
+def test_child_reads_the_stdin_it_is_given():
+    """A keyboard program gets a pseudo-terminal as standard input (turtlebot_teleop_key's tests)."""
+    import os
+    import pty
+
+    master, slave = pty.openpty()
+    script = "import os, sys; print('tty' if os.isatty(0) else 'no tty', sys.stdin.readline().strip(), flush=True)"
+    proc = ManagedProcess([sys.executable, "-c", script], name="reader", stdin=slave)
+    try:
+        os.write(master, b"hello\n")
+        wait_for(lambda: "tty hello" in proc.output(), 10.0, what="the line typed on the pty")
+    finally:
+        proc.stop()
+        os.close(master)
+        os.close(slave)
+    plain = ManagedProcess([sys.executable, "-c", script], name="reader")
+    try:
+        wait_for(lambda: "no tty" in plain.output(), 10.0, what="/dev/null as stdin")
+    finally:
+        plain.stop()

@@ -83,9 +83,11 @@ def wait_for(predicate, timeout, interval=0.05, what="condition"):
 
 
 class ManagedProcess:
-    """A child process in its own process group, with its output in a log file."""
+    """A child process in its own process group, with its output in a log file. Its standard input
+    is /dev/null unless ``stdin`` (a file descriptor or file, e.g. a pseudo-terminal's slave side
+    for a program that reads a keyboard) is given."""
 
-    def __init__(self, argv, env=None, log_path=None, name=None):
+    def __init__(self, argv, env=None, log_path=None, name=None, stdin=subprocess.DEVNULL):
         self.argv = list(argv)
         self.name = name or os.path.basename(self.argv[0])
         if log_path is None:
@@ -98,7 +100,7 @@ class ManagedProcess:
         self.proc = subprocess.Popen(
             self.argv,
             env=env,
-            stdin=subprocess.DEVNULL,
+            stdin=stdin,
             stdout=self._log,
             stderr=subprocess.STDOUT,
             start_new_session=True,

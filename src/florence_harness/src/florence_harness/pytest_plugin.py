@@ -11,6 +11,8 @@ Fixtures:
         publisher and create another on the same topic: a long-lived subscriber that
         still holds the old connection (same caller URI) skips the new one for good
         (rospy's RegManager checks ``has_connection``), and the test waits forever.
+    wall_time (function): the test runs on wall time: a /use_sim_time that an earlier test's
+        simulator left on the session's master is deleted (nodes would wait for a /clock).
     launch (function): ``launch(package, file, *args)`` starts a roslaunch against
         the private master; every launch is stopped when the test ends, and its
         output is printed if the test failed.
@@ -84,6 +86,12 @@ def publisher(rospy_node):
         return pub
 
     return get
+
+
+@pytest.fixture
+def wall_time(rospy_node):
+    if rospy_node.has_param("/use_sim_time"):
+        rospy_node.delete_param("/use_sim_time")
 
 
 @pytest.fixture
