@@ -76,6 +76,17 @@ def test_dependencies_resolve(name):
     assert not unresolved, f"{name} declares dependencies nothing provides: {unresolved}"
 
 
+def test_build_order_has_no_cycle():
+    """catkin orders the packages by every declared dependency, test_depend included: a cycle
+    fails a clean build's cmake step (an incremental build keeps its old order and hides it)."""
+    from catkin_pkg.topological_order import topological_order_packages
+
+    packages = {str(path): parse_package(str(path / "package.xml")) for path in PACKAGES.values()}
+    cyclic = sorted(name for path, package in topological_order_packages(packages)
+                    if path is None for name in [package.name])
+    assert not cyclic, f"catkin sees a dependency cycle through {cyclic}"
+
+
 def test_interface_packages_declare_message_generation():
     for name, path in PACKAGES.items():
         has_interfaces = any((path / d).is_dir() for d in ("msg", "srv", "action"))
