@@ -97,3 +97,93 @@ def convergence_index(pos_err, yaw_err, pos_tol=0.2, yaw_tol=0.1745, hold=5):
         if run >= hold:
             return i - hold + 1
     return None
+
+
+# ---- the mapping tour --------------------------------------------------------------------------------------------
+# A tour of the whole apartment for building a map (maps/apartment, map frame, metres), the way the user manual
+# says to drive (7.3): along the rooms, a full turn on the spot in each room. Every room; one loop: living room ->
+# corridor -> (bedroom, bathroom: in and back out) -> kitchen -> through the opening back into the living room,
+# where the tour began. Steps: ("go", x, y), ("spin",): a full turn counter-clockwise on the spot, ("clear", xmin,
+# ymin, xmax, ymax): wait until nobody stands or walks in that box (the corridor is too narrow to pass a person,
+# and the people of the apartment wait while the robot is in their way). About 47 m.
+CORRIDOR = (-0.1, 5.5, 8.1, 6.8)  # the corridor's box [m]: x min, y min, x max, y max
+MAPPING_TOUR = [
+    ("spin",),
+    ("go", 1.0, 4.3), ("spin",),
+    ("go", 2.45, 4.9), ("clear", 0.0, 5.5, 2.75, 6.8),  # nobody west of the living room door
+    ("go", 2.45, 6.15), ("go", 1.45, 6.15), ("go", 1.45, 7.5),  # the bedroom
+    ("go", 3.0, 7.6), ("go", 4.6, 7.6), ("go", 4.6, 9.2), ("spin",), ("go", 4.6, 7.6), ("go", 1.45, 7.6),
+    ("go", 1.45, 7.1), ("clear", 1.15, 5.5, 8.1, 6.8),  # nobody east of the bedroom door
+    ("go", 1.45, 6.15), ("go", 6.6, 6.15), ("go", 6.6, 7.6),  # the bathroom
+    ("go", 6.3, 8.5), ("spin",), ("go", 6.6, 7.5),
+    ("go", 6.6, 7.1), ("clear", 4.0, 5.5, 8.1, 6.8),  # nobody in the corridor's east end
+    ("go", 6.6, 6.15), ("go", 6.45, 5.0),  # the kitchen
+    ("go", 6.45, 4.0), ("go", 6.3, 2.25), ("spin",), ("go", 6.0, 1.2), ("go", 6.3, 2.25),
+    ("go", 4.2, 2.25), ("go", 1.0, 2.5), ("go", 1.6, 3.0),  # through the opening: the loop closes
+]
+MAPPING_START = APARTMENT_START
+
+
+class TourDriver:
+    """Drives a tour of ``steps`` (MAPPING_TOUR's kinds) from ground truth, as a person with a keyboard would:
+    :meth:`command` gives (v [m/s], w [rad/s]) for the robot's true pose and the people's true positions.
+
+    Near people it gives way: it stops while somebody is within ``near`` [m] in front of it (ahead within
+    +-75 deg of its heading), and a "clear" step waits until nobody is in its box."""
+
+    def __init__(self, steps, v_max=0.3, w_spin=0.8, near=0.9):
+        self.steps = list(steps)
+        self.index = 0
+        self.v_max, self.w_spin, self.near = v_max, w_spin, near
+        self.spun = None  # [rad] turned so far in a "spin" step
+        self.last_yaw = None
+        self.waited = 0.0  # [s] for people, over the tour
+
+    @property
+    def done(self):
+        return self.index >= len(self.steps)
+
+    def _blocked(self, pose, people):
+        for px, py in people:
+            dx, dy = px - pose[0], py - pose[1]
+            if math.hypot(dx, dy) < self.near and abs(angles.diff(math.atan2(dy, dx), pose[2])) < math.radians(75):
+                return True
+        return False
+
+    def command(self, pose, people=(), dt=0.05):
+        """(v, w) for the true ``pose`` (x, y, yaw) and ``people`` [(x, y), ...]; ``dt`` [s] since the last
+        call. (0, 0) once the tour is done."""
+        while not self.done:
+            step = self.steps[self.index]
+            kind = step[0]
+            if kind == "clear":
+                xmin, ymin, xmax, ymax = step[1:]
+                if any(xmin <= px <= xmax and ymin <= py <= ymax for px, py in people):
+                    self.waited += dt
+                    return 0.0, 0.0
+                self.index += 1
+                continue
+            if kind == "spin":
+                if self.spun is None:
+                    self.spun, self.last_yaw = 0.0, pose[2]
+                self.spun += abs(angles.diff(pose[2], self.last_yaw))
+                self.last_yaw = pose[2]
+                if self.spun >= 2.0 * math.pi:
+                    self.spun = None
+                    self.index += 1
+                    continue
+                return 0.0, self.w_spin
+            v, w, reached = follow(pose, step[1:3], v_max=self.v_max)
+            if reached:
+                self.index += 1
+                continue
+            if v > 0.0 and self._blocked(pose, people):
+                self.waited += dt
+                return 0.0, 0.0
+            return v, w
+        return 0.0, 0.0
+
+
+def tour_length(start_xy, steps):
+    """Length [m] of the "go" legs of a tour."""
+    return path_length(start_xy, [s[1:3] for s in steps if s[0] == "go"])
