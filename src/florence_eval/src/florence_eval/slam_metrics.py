@@ -119,3 +119,65 @@ def false_cells(built, truth):
     ``built`` that are not free in ``truth``): boolean grids for the pictures."""
     near_true = ndimage.binary_dilation(truth == OCCUPIED, np.ones((3, 3), bool))
     return (built == OCCUPIED) & ~near_true, (built == FREE) & (truth != FREE)
+
+
+def seen_map(poses, scans, resolution, occ_thresh, truth):
+    """The perfect-pose map on ``truth``'s grid (a map_server GridMap): every scan of ``scans``
+    [(laser geometry, ranges, usable [m], max_range [m])] ray-traced as slam_gmapping does from the true base
+    pose of the same index in ``poses`` [N, 3]."""
+    from gmapping.occupancy import OccupancyCounts
+
+    counts = OccupancyCounts(resolution)
+    for pose, (laser, ranges, usable, max_range) in zip(poses, scans, strict=True):
+        counts.add_scan(pose, laser, ranges, usable, max_range)
+    data, origin = counts.grid(occ_thresh)
+    return resample_into(data, origin, resolution, 0.0, (0.0, 0.0), truth.data.shape, truth.origin[:2],
+                         truth.resolution)
+
+
+def judge_map(data, origin, resolution, alignment, truth, seen):
+    """(scores (map_scores), the built map on the truth's grid) of a built map ``data`` (int8 [H, W], origin
+    (x, y) of its cell (0, 0), its frame placed in the world by ``alignment`` (theta, t))."""
+    theta, t = alignment
+    built = resample_into(np.asarray(data), origin, resolution, theta, t, truth.data.shape, truth.origin[:2],
+                          truth.resolution)
+    return map_scores(built, truth.data, seen), built
+
+
+def plot_map(path, built, truth, seen, origin, resolution, title, tracks=()):
+    """The built map over the true one, written to ``path`` (PNG). Grids on one grid (int8 -1/0/100); colours:
+    black, occupied in both (within one cell); red, occupied only in the built map; orange, truly occupied and
+    seen by the tour's beams but missing from the built map; light grey, truly occupied and never seen; white,
+    free in the built map and in the world; magenta, free in the built map, not in the world; dark grey,
+    unknown. ``tracks``: [(xy [N, 2] in the world, colour, label)]."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ring = np.ones((3, 3), bool)
+    true_occ, built_occ = truth == OCCUPIED, built == OCCUPIED
+    near_true, near_built = ndimage.binary_dilation(true_occ, ring), ndimage.binary_dilation(built_occ, ring)
+    visible = true_occ & ndimage.binary_dilation(seen == OCCUPIED, ring)
+    img = np.full((*built.shape, 3), 0.35)
+    img[built == FREE] = (1.0, 1.0, 1.0)
+    img[(built == FREE) & (truth != FREE)] = (0.9, 0.2, 0.9)
+    img[true_occ & ~visible] = (0.8, 0.8, 0.8)
+    img[visible & ~near_built] = (1.0, 0.6, 0.0)
+    img[built_occ & near_true] = (0.0, 0.0, 0.0)
+    img[built_occ & ~near_true] = (0.9, 0.0, 0.0)
+    h, w = built.shape
+    extent = [origin[0], origin[0] + w * resolution, origin[1], origin[1] + h * resolution]
+    fig, ax = plt.subplots(figsize=(7, 8.5))
+    ax.imshow(img, origin="lower", extent=extent, interpolation="nearest")
+    for track, colour, label in tracks:
+        xy = np.asarray(track).reshape(-1, 2)
+        ax.plot(xy[:, 0], xy[:, 1], "-", color=colour, lw=0.8, label=label)
+    if tracks:
+        ax.legend(loc="upper right", fontsize=7)
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_title(title, fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

@@ -21,8 +21,8 @@ import rospkg
 
 from florence_common.maps import map_file
 from florence_eval import slam_metrics
-from florence_eval.amcl_offline import XACRO, launch_params
-from florence_eval.tour import MAPPING_START, MAPPING_TOUR, TourDriver, interpolate_poses
+from florence_eval.shipped import XACRO, launch_params
+from florence_eval.tour import MAPPING_START, MAPPING_TOUR, TourDriver, clearance_of, interpolate_poses
 
 LAUNCH = Path(rospkg.RosPack().get_path("gmapping")) / "launch" / "slam_gmapping.launch"
 WORLD = map_file("apartment", "apartment.world.yaml")
@@ -49,6 +49,7 @@ class MappingRun:
     driven_m: float = 0.0
     collisions: int = 0
     waited_s: float = 0.0  # the driver waited for people
+    sidesteps: int = 0  # ... and stepped aside for them
     complete: bool = False
     resamplings: int = 0
     failed_matches: int = 0
@@ -80,13 +81,14 @@ class OfflineMapping:
         return np.array([b.ox, b.oy, b.oyaw])
 
     def people_xy(self):
-        return [(p.x, p.y) for p in self.sim.people.values()]
+        """(x, y, vx, vy) [m, m/s] of everybody, as the person at the keyboard sees them."""
+        return [(p.x, p.y, p.vx, p.vy) for p in self.sim.people.values()]
 
     def run(self, steps=MAPPING_TOUR, timeout=1200.0, v_max=0.3, cmd_rate=20.0, progress=None):
         """Drive ``steps`` (a tour of florence_eval.tour's kinds); ``timeout`` [s] of simulated time.
         ``progress(run)`` is called after every processed scan. Returns a MappingRun."""
         sim, slam, run = self.sim, self.slam, MappingRun()
-        driver = TourDriver(steps, v_max=v_max)
+        driver = TourDriver(steps, v_max=v_max, clearance=clearance_of(WORLD, sim.base.cfg.height))
         cmd_every = max(1, round(1.0 / (cmd_rate * sim.cfg.dt)))
         t_end = sim.time + timeout
         while not driver.done and sim.time < t_end:
@@ -118,6 +120,7 @@ class OfflineMapping:
         run.sim_time_s = sim.time
         run.collisions = sim.base.collisions
         run.waited_s = driver.waited
+        run.sidesteps = driver.sidesteps
         run.complete = driver.done
         run.resamplings = slam.resamplings
         run.slam = slam
@@ -128,7 +131,6 @@ def evaluate(run, start=MAPPING_START, truth_yaml=MAP_YAML):
     """Figures of a MappingRun against ground truth: trajectory errors (the best particle's final trajectory,
     best-fit aligned (ATE) and anchored at the start; the online estimates), the map's scores
     (florence_eval.slam_metrics), with the grids for the pictures. Returns (figures, grids)."""
-    from gmapping.occupancy import OccupancyCounts
     from map_server.mapfile import load_map
 
     slam = run.slam
@@ -141,19 +143,9 @@ def evaluate(run, start=MAPPING_START, truth_yaml=MAP_YAML):
                                                       anchor=start)
     data, origin, resolution = slam.build_map()
     truth = load_map(str(truth_yaml))
-    built = slam_metrics.resample_into(data, origin, resolution, theta, t, truth.data.shape, truth.origin[:2],
-                                       truth.resolution)
-    # the perfect-pose map: the same scans from the true poses, on the truth's grid
-    perfect = OccupancyCounts(resolution)
-    for k, (laser, ranges, usable, max_range) in enumerate(slam.scans):
-        perfect.add_scan(truth_at[k], laser, ranges, usable, max_range)
-    p_data, p_origin = perfect.grid(slam.cfg.occ_thresh)
-    seen = slam_metrics.resample_into(p_data, p_origin, resolution, 0.0, (0.0, 0.0), truth.data.shape,
-                                      truth.origin[:2], truth.resolution)
-    scores = slam_metrics.map_scores(built, truth.data, seen)
-    anchored = slam_metrics.resample_into(data, origin, resolution, start[2], start[:2], truth.data.shape,
-                                          truth.origin[:2], truth.resolution)
-    scores_anchored = slam_metrics.map_scores(anchored, truth.data, seen)
+    seen = slam_metrics.seen_map(truth_at, slam.scans, resolution, slam.cfg.occ_thresh, truth)
+    scores, built = slam_metrics.judge_map(data, origin, resolution, (theta, t), truth, seen)
+    scores_anchored, _ = slam_metrics.judge_map(data, origin, resolution, (start[2], start[:2]), truth, seen)
     cpu = np.asarray(run.update_cpu_s)
     figures = {
         **scores,
@@ -166,7 +158,8 @@ def evaluate(run, start=MAPPING_START, truth_yaml=MAP_YAML):
         "alignment": {"theta_deg": math.degrees(theta), "x_m": float(t[0]), "y_m": float(t[1])},
         "updates": slam.updates, "resamplings": run.resamplings, "failed_matches": run.failed_matches,
         "particles": slam.cfg.particles, "sim_time_s": run.sim_time_s, "driven_m": run.driven_m,
-        "collisions": run.collisions, "waited_for_people_s": run.waited_s, "complete": run.complete,
+        "collisions": run.collisions, "waited_for_people_s": run.waited_s, "sidesteps": run.sidesteps,
+        "complete": run.complete,
         "cpu_s_per_sim_s": run.scan_cpu_s / run.sim_time_s if run.sim_time_s else math.nan,
         "update_cpu_p50_ms": float(np.percentile(cpu, 50) * 1e3) if cpu.size else math.nan,
         "update_cpu_p99_ms": float(np.percentile(cpu, 99) * 1e3) if cpu.size else math.nan,

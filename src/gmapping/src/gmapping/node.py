@@ -91,12 +91,15 @@ class SlamGMappingNode:
     # ---- tf ---------------------------------------------------------------------------------------------------
     def _publish_tf_loop(self):
         rate = rospy.Rate(1.0 / self.p.transform_publish_period)
+        last = None
         while not self._stop.is_set() and not rospy.is_shutdown():
             with self.tf_lock:
                 x, y, yaw = self.map_to_odom
             try:
-                self.tf_pub.sendTransform(transform_stamped(rospy.Time.now() + self.tf_delay, self.map_frame,
-                                                            self.odom_frame, x, y, yaw))
+                stamp = rospy.Time.now() + self.tf_delay
+                if stamp != last:  # simulated time may not have moved since the last round
+                    self.tf_pub.sendTransform(transform_stamped(stamp, self.map_frame, self.odom_frame, x, y, yaw))
+                    last = stamp
                 rate.sleep()
             except rospy.ROSTimeMovedBackwardsException:
                 rate = rospy.Rate(1.0 / self.p.transform_publish_period)
