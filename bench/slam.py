@@ -10,9 +10,9 @@ giving way to the apartment's two walking people (--nobody: without them).
 ROS run (the default), the manual's whole flow: build_map.launch sim:=true (florence_sim, the filters and the
 velocity multiplexer, slam_gmapping with the TurtleBot's values), the tour driven through the multiplexer's
 teleop input as turtlebot_teleop_key drives, `rosrun map_server map_saver -f`, then (unless --no-nav)
-turtlebot_2dnav_control.launch sim:=true on the saved map (its move_base plans on that map alone: no keep-out
-or overhang map from the simulator; amcl is told where the robot is through /initialpose, as in rviz) to every
-room hotspot of maps/apartment/rooms.yaml, carried into the saved map's frame.
+turtlebot_2dnav_control.launch sim:=true on the saved map (both of move_base's costmaps take that map: the
+simulator's keep-out and overhang maps are in the world's frame; amcl is told where the robot is through
+/initialpose, as in rviz) to every room hotspot of maps/apartment/rooms.yaml, carried into the saved map's frame.
 
 Offline (--offline): florence_sim's core and the mapper's core in one process (florence_eval.slam_offline), the
 mapper's own CPU time and its final best trajectory; repeatable per seed.
@@ -178,7 +178,7 @@ def navigate(master, saved, common, start):
 
     rooms = yaml.safe_load(map_file("apartment", "rooms.yaml").read_text())["rooms"]
     stack = roslaunch(master, "turtlebot_control", "turtlebot_2dnav_control.launch", "sim:=true",
-                      f"map_file:={saved}", "nav_map_topic:=/map", "local_map_topic:=", *common)
+                      f"map_file:={saved}", "nav_map_topic:=/map", "local_map_topic:=/map", *common)
     legs = []
     try:
         session = NavSession()

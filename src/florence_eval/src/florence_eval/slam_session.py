@@ -10,48 +10,37 @@ time, from the ground truth's stamps. :func:`save_map` runs map_saver as the man
 """
 
 import math
-import threading
 import time
 
 import numpy as np
 import rospy
 from geometry_msgs.msg import Twist
-from nav_msgs.msg import Odometry
 from sensor_msgs.msg import LaserScan
-from std_msgs.msg import UInt32
 
 from florence_common.processes import ManagedProcess, ProcessError, wait_for
 from florence_common_ros import convert
+from florence_eval.nav_session import TruthRecorder
 from florence_eval.tour import TourDriver
 
 TELEOP = "/cmd_vel_mux/input/teleop"
 
 
-class MappingSession:
+class MappingSession(TruthRecorder):
     """Drive a tour through the teleop input and record ground truth, scans and slam_gmapping's estimate."""
 
     def __init__(self, tf_buffer, map_frame="map", base_frame="base_footprint", cmd_topic=TELEOP):
         from florence_sim.msg import People
 
+        super().__init__()
         self.tf_buffer, self.map_frame, self.base_frame = tf_buffer, map_frame, base_frame
-        self.lock = threading.Lock()
-        self.truth = []  # (t [s], x, y, yaw)
         self.people = {}  # id -> (x, y, vx, vy), the latest
         self.scans = []  # (t [s], frame, angle_min, angle_increment, range_min, range_max, ranges float32)
         self.estimates = []  # (t [s], x, y, yaw) of map -> base_footprint
-        self.collisions = 0
         self.cmd = rospy.Publisher(cmd_topic, Twist, queue_size=1)
-        self.subs = [
-            rospy.Subscriber("/base_pose_ground_truth", Odometry, self._on_truth, queue_size=100),
+        self.subs += [
             rospy.Subscriber("/people_ground_truth", People, self._on_people, queue_size=10),
             rospy.Subscriber("/scan", LaserScan, self._on_scan, queue_size=50, buff_size=2**22),
-            rospy.Subscriber("/collisions", UInt32, self._on_collisions, queue_size=10),
         ]
-
-    def _on_truth(self, msg):
-        p = msg.pose.pose
-        with self.lock:
-            self.truth.append((msg.header.stamp.to_sec(), p.position.x, p.position.y, convert.yaw_of(p.orientation)))
 
     def _on_people(self, msg):
         with self.lock:
@@ -62,22 +51,6 @@ class MappingSession:
         with self.lock:
             self.scans.append((msg.header.stamp.to_sec(), msg.header.frame_id, msg.angle_min, msg.angle_increment,
                                msg.range_min, msg.range_max, np.asarray(msg.ranges, np.float32)))
-
-    def _on_collisions(self, msg):
-        with self.lock:
-            self.collisions = msg.data
-
-    def close(self):
-        for sub in self.subs:
-            sub.unregister()
-
-    def latest(self):
-        with self.lock:
-            return self.truth[-1] if self.truth else None
-
-    def sim_now(self):
-        last = self.latest()
-        return last[0] if last else 0.0
 
     def wait_ready(self, timeout=120.0):
         """Wait (wall time) for ground truth, a scan and slam_gmapping's map -> base; False if they did not come."""
@@ -111,7 +84,7 @@ class MappingSession:
             truth = self.latest()
             with self.lock:
                 people = list(self.people.values())
-            v, w = driver.command(truth[1:], people, dt=max(0.0, truth[0] - last_t))
+            v, w = driver.command(truth[1:4], people, dt=max(0.0, truth[0] - last_t))
             last_t = truth[0]
             self.cmd.publish(Twist(linear=_vector(v), angular=_vector(0.0, 0.0, w)))
             if truth[0] - last_estimate >= 0.5:
@@ -129,9 +102,9 @@ class MappingSession:
         return driver
 
     def truth_arrays(self):
-        with self.lock:
-            rows = np.array(self.truth).reshape(-1, 4)
-        return rows[:, 0], rows[:, 1:]
+        """(times [N] [s], poses [N, 3] (x, y, yaw)) of the ground truth so far."""
+        rows = self.track()
+        return rows[:, 0], rows[:, 1:4]
 
 
 def _vector(x, y=0.0, z=0.0):

@@ -2,24 +2,27 @@
 
 (openslam_gmapping ``scanmatcher.{h,cpp}``: ``score``, ``likelihoodAndScore``, ``optimize``.)
 
-For a pose, each used beam (every (lskip + 1)-th, with a reading up to maxUrange) ends at a point;
-among the (2 kernelSize + 1)^2 cells around it, the candidates are the cells some beam ended in
-whose neighbour one cell (sqrt(2) cells) back along the beam no beam ended in (a surface seen from
-this side); the beam's mismatch d is the distance from its end point to the nearest candidate's
-mean hit point. Then
+For a pose, each used beam (every (lskip + 1)-th, with a reading up to maxUrange) ends at a point. Among the
+(2 kernelSize + 1)^2 cells around it, the candidates are the cells some beam ended in, whose beams came from
+the same side as this one (their summed directions point the same way). The beam's mismatch d is measured
+to the *surface* through the candidate whose mean hit point is nearest: the hits of the window's candidates
+whose means lie within SURFACE_REACH cells of that one, fitted by their mean mu and covariance C (with a
+floor of SURFACE_NOISE across): d^2 = lambda_min (p - mu)^T C^-1 (p - mu), the distance across a wall and
+to the mean at a corner or a table leg. Where the hits form a line, the beam must also come from the side of
+its normal that the hits came from. Then, as GMapping,
 
     score      = sum over matched beams of exp(-d^2 / sigma)
     likelihood = sum over matched beams of -d^2 / lsigma  +  (unmatched beams) x -0.5 / lsigma
 
-``optimize`` is GMapping's hill climb: from the odometry pose try +-lstep along the map's x and y
-axes and +-astep in yaw, move to the best of the six while the score improves; when none improves,
-halve both steps; stop once nothing improves after ``iterations`` halvings.
+``optimize`` is GMapping's hill climb: from the odometry pose try +-lstep along the map's x and y axes and
++-astep in yaw, move to the best of the six while the score improves; when none improves, halve both steps;
+stop once nothing improves after ``iterations`` halvings.
 
-One difference from openslam_gmapping, on purpose: its free-cell check adds the *absolute* map index
-of the small vector (free point - end point) to each candidate (``world2map(pfree - phit)``), which
-lands far outside the beam's neighbourhood, so the check never does what it says. Here the free cell
-is the candidate's neighbour back along the beam, as intended (a beam that passes the front face of
-a thin wall cannot match its back face).
+Two differences from openslam_gmapping, on purpose (the README says why): GMapping's d is the distance to the
+nearest candidate's mean hit point, which is not smallest at the true pose (an end point is as likely half a
+cell along a wall from a mean as on it); and its "free cell in front" check adds the *absolute* map index of
+the small vector (free point - end point) to each candidate (``world2map(pfree - phit)``), which lands far
+outside the beam's neighbourhood, so it never does what it says. The side checks here do it.
 """
 
 import math
@@ -29,7 +32,6 @@ import numpy as np
 
 from gmapping.particle_maps import HITS, PATCH_BITS, PATCH_MASK, SUM_UX, SUM_UY, SUM_X, SUM_XX, SUM_XY, SUM_Y, SUM_YY
 
-FREE_CELLS = math.sqrt(2.0)  # the free cell lies this many cells back along the beam (GMapping's freeCellRatio)
 NULL_LIKELIHOOD = -0.5  # an unmatched beam's likelihood, times 1 / lsigma
 SURFACE_NOISE = 0.01  # [m] least spread of a surface across itself (the fit's floor)
 ELONGATED = 4.0  # a surface whose spread along is this many times its spread across is a line
