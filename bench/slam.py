@@ -104,7 +104,7 @@ def ros_run(args):
 
         rospy.init_node("bench", anonymous=False, disable_signals=True)
         tf_buffer = tf2_ros.Buffer(cache_time=rospy.Duration(60.0))
-        listener = tf2_ros.TransformListener(tf_buffer)  # noqa: F841 - feeds tf_buffer
+        listener = tf2_ros.TransformListener(tf_buffer)
         session = MappingSession(tf_buffer)
         if not session.wait_ready(180.0):
             raise SystemExit(f"florence_sim or slam_gmapping did not come up:\n{stack.output()}")
@@ -159,6 +159,7 @@ def ros_run(args):
                                                    (slam_metrics.apply_se2(*alignment, est[ok, 1:3]), "tab:blue",
                                                     "slam_gmapping (aligned)")])
         session.close()
+        listener.unregister()  # the next simulation's clock starts again at 0: its tf would be "old data" here
     finally:
         stack.stop()
     if not args.no_nav:

@@ -35,7 +35,7 @@ from florence_common_ros.node import read_params, run
 from florence_common_ros.transforms import lookup_matrix
 from gmapping.laser import LaserGeometry, LaserNotPlanar
 from gmapping.params import NODE
-from gmapping.slam import GridSlam, config_from_params
+from gmapping.slam import GridSlam, config_from_params, warm_up
 
 LOG = "slam_gmapping: "
 ODOM_TIMEOUT = 0.5  # [s] of ROS time to wait for odometry at a scan's time (slam_gmapping's tf filter waits)
@@ -80,6 +80,8 @@ class SlamGMappingNode:
         if p.transform_publish_period > 0:
             self.tf_thread = threading.Thread(target=self._publish_tf_loop, name="map_to_odom", daemon=True)
             self.tf_thread.start()
+        took = warm_up()  # before the first scan: compiling the kernels there would leave the scans queued
+        rospy.loginfo(LOG + "kernels ready in %.1f s", took)
         self.scan_sub = rospy.Subscriber("scan", LaserScan, self.on_scan, queue_size=5, buff_size=2**22)
         rospy.loginfo(LOG + "%d particles, map at %.3f m/cell; waiting for scans on %s", self.config.particles,
                       self.config.delta, rospy.resolve_name("scan"))

@@ -252,3 +252,23 @@ class GridSlam:
         scans = sum(s[1].nbytes for s in self.scans) + sum(lasers.values())
         counts = 0 if self._counts is None else self._counts.hits.nbytes * 2
         return self.maps.nbytes() + self.trajectories.nbytes + scans + counts
+
+
+def warm_up():
+    """Compile (or load from numba's cache) every kernel the mapper uses, on a tiny synthetic scan, so that the
+    first real scans are not held up by the compiler (tens of seconds on a busy machine). Returns the seconds
+    it took."""
+    import time
+
+    from gmapping.laser import LaserGeometry
+
+    started = time.monotonic()
+    angles = np.linspace(-1.5, 1.5, 31)
+    ranges = np.where(np.abs(np.tan(angles)) < 2.0, 2.0 / np.cos(angles), np.inf)  # a wall 2 m ahead
+    laser = LaserGeometry.from_transform(np.eye(4), angles[0], angles[1] - angles[0], len(angles))
+    config = SlamConfig(particles=2, linearUpdate=0.0, angularUpdate=0.0, xmin=-1.0, ymin=-1.0, xmax=1.0, ymax=1.0)
+    slam = GridSlam(config, (0.0, 0.0, 0.0), np.random.default_rng(0))
+    for x in (0.0, 0.05):
+        slam.process_scan((x, 0.0, 0.0), laser, ranges - x, 0.02, 5.6, x)
+    slam.build_map()
+    return time.monotonic() - started
