@@ -60,6 +60,7 @@ def _match_beams(pool, index, ox, oy, p, x, y, th, lx, ly, bcos, bsin, ranges, u
     matched = 0
     nohit = NULL_LIKELIHOOD / lsigma
     floor = SURFACE_NOISE * SURFACE_NOISE
+    window = np.empty(((2 * kernel + 1) ** 2, 8))  # a candidate's hits, sums, squares and directions
     for b in range(lskip, ranges.shape[0], lskip + 1):
         r = ranges[b]
         if not (r <= usable and r > 0.0):
@@ -73,9 +74,10 @@ def _match_beams(pool, index, ox, oy, p, x, y, th, lx, ly, bcos, bsin, ranges, u
         # the end point relative to its cell's centre
         px = hx - (hcx + 0.5) * delta
         py = hy - (hcy + 0.5) * delta
-        # the candidate whose mean hit point is nearest to the end point ...
+        # the window's candidates (hit, by beams from this side), kept for the second pass ...
+        count = 0
         best = math.inf
-        bx = by = 0
+        nearest = -1
         for kx in range(-kernel, kernel + 1):
             for ky in range(-kernel, kernel + 1):
                 pid = _patch(index, ox, oy, p, hcx + kx, hcy + ky)
@@ -86,49 +88,49 @@ def _match_beams(pool, index, ox, oy, p, x, y, th, lx, ly, bcos, bsin, ranges, u
                 m = pool[pid, HITS, i, j]
                 if m <= 0.0 or pool[pid, SUM_UX, i, j] * dc + pool[pid, SUM_UY, i, j] * ds <= 0.0:
                     continue  # no hit, or a surface seen from the other side
-                ex = px - (kx * delta + pool[pid, SUM_X, i, j] / m)
-                ey = py - (ky * delta + pool[pid, SUM_Y, i, j] / m)
+                ax = kx * delta
+                ay = ky * delta
+                w = window[count]
+                w[0] = m
+                w[1] = pool[pid, SUM_X, i, j] + m * ax  # sums relative to the end point's cell centre
+                w[2] = pool[pid, SUM_Y, i, j] + m * ay
+                cx_ = pool[pid, SUM_X, i, j]
+                cy_ = pool[pid, SUM_Y, i, j]
+                w[3] = pool[pid, SUM_XX, i, j] + 2.0 * ax * cx_ + m * ax * ax
+                w[4] = pool[pid, SUM_XY, i, j] + ax * cy_ + ay * cx_ + m * ax * ay
+                w[5] = pool[pid, SUM_YY, i, j] + 2.0 * ay * cy_ + m * ay * ay
+                w[6] = pool[pid, SUM_UX, i, j]
+                w[7] = pool[pid, SUM_UY, i, j]
+                ex = px - w[1] / m
+                ey = py - w[2] / m
                 d2 = ex * ex + ey * ey
                 if d2 < best:
-                    best, bx, by = d2, kx, ky
-        if best == math.inf:
+                    best, nearest = d2, count
+                count += 1
+        if nearest < 0:
             like += nohit
             continue
-        # ... and the surface through it: its hits and those of the window's cells whose mean lies within
-        # SURFACE_REACH of its mean (the same surface, not the far face of a thin wall)
-        pid = _patch(index, ox, oy, p, hcx + bx, hcy + by)
-        m = pool[pid, HITS, (hcy + by) & PATCH_MASK, (hcx + bx) & PATCH_MASK]
-        cmx = bx * delta + pool[pid, SUM_X, (hcy + by) & PATCH_MASK, (hcx + bx) & PATCH_MASK] / m
-        cmy = by * delta + pool[pid, SUM_Y, (hcy + by) & PATCH_MASK, (hcx + bx) & PATCH_MASK] / m
+        # ... and the surface through the nearest: the candidates whose mean lies within SURFACE_REACH of its mean
+        # (the same surface, not the far face of a thin wall)
+        cmx = window[nearest, 1] / window[nearest, 0]
+        cmy = window[nearest, 2] / window[nearest, 0]
         reach2 = (SURFACE_REACH * delta) ** 2
         n = 0.0
         sx = sy = sxx = sxy = syy = sux = suy = 0.0
-        for kx in range(-kernel, kernel + 1):
-            for ky in range(-kernel, kernel + 1):
-                pid = _patch(index, ox, oy, p, hcx + kx, hcy + ky)
-                if pid < 0:
-                    continue
-                i = (hcy + ky) & PATCH_MASK
-                j = (hcx + kx) & PATCH_MASK
-                m = pool[pid, HITS, i, j]
-                if m <= 0.0 or pool[pid, SUM_UX, i, j] * dc + pool[pid, SUM_UY, i, j] * ds <= 0.0:
-                    continue
-                ax = kx * delta
-                ay = ky * delta
-                cx_ = pool[pid, SUM_X, i, j]
-                cy_ = pool[pid, SUM_Y, i, j]
-                dx = ax + cx_ / m - cmx
-                dy = ay + cy_ / m - cmy
-                if dx * dx + dy * dy > reach2:
-                    continue
-                n += m
-                sx += cx_ + m * ax
-                sy += cy_ + m * ay
-                sxx += pool[pid, SUM_XX, i, j] + 2.0 * ax * cx_ + m * ax * ax
-                sxy += pool[pid, SUM_XY, i, j] + ax * cy_ + ay * cx_ + m * ax * ay
-                syy += pool[pid, SUM_YY, i, j] + 2.0 * ay * cy_ + m * ay * ay
-                sux += pool[pid, SUM_UX, i, j]
-                suy += pool[pid, SUM_UY, i, j]
+        for k in range(count):
+            w = window[k]
+            dx = w[1] / w[0] - cmx
+            dy = w[2] / w[0] - cmy
+            if dx * dx + dy * dy > reach2:
+                continue
+            n += w[0]
+            sx += w[1]
+            sy += w[2]
+            sxx += w[3]
+            sxy += w[4]
+            syy += w[5]
+            sux += w[6]
+            suy += w[7]
         if n <= 0.0:
             like += nohit
             continue
