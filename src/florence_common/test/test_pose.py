@@ -88,3 +88,20 @@ def test_depth_metres_of_both_encodings():
     assert out.dtype == np.float32 and np.isnan(out[0, 0]) and out[0, 1] == 1.5 and np.isnan(out[1]).all()
     with pytest.raises(ValueError, match="8UC1"):
         depth_metres(mm, "8UC1")
+
+
+def test_beams_in_plane_upright_yawed_and_upside_down():
+    """Florence's Hokuyo (base_laser_link: xyz 0.06 0 -0.02, rpy pi 0 0): a beam at +a in the laser frame
+    points to -a on the base, and the laser's z axis points down."""
+    angles = np.array([-1.5, -0.3, 0.0, 0.5, 2.0])
+    xy, bearings, up = pose.beams_in_plane(pose.transform_matrix((0.06, 0.0, -0.02), (1.0, 0.0, 0.0, 0.0)), angles)
+    np.testing.assert_allclose(xy, [0.06, 0.0])
+    np.testing.assert_allclose(bearings, -angles, atol=1e-12)
+    assert up == pytest.approx(-1.0)
+    _, upright, up = pose.beams_in_plane(np.eye(4), angles)
+    np.testing.assert_allclose(upright, angles, atol=1e-12)
+    assert up == pytest.approx(1.0)
+    _, yawed, _ = pose.beams_in_plane(pose.planar_matrix(0.0, 0.0, 0.5), angles)
+    np.testing.assert_allclose(yawed, angles + 0.5, atol=1e-12)
+    tilted = pose.transform_matrix((0, 0, 0), tuple(pose.Rotation.from_euler("y", 0.3).as_quat()))
+    assert pose.beams_in_plane(tilted, angles)[2] == pytest.approx(math.cos(0.3))

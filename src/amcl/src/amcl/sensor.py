@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-from florence_common.pose import transform_matrix
+from florence_common.pose import beams_in_plane, transform_matrix
 
 LASER_MODELS = ("likelihood_field", "beam", "likelihood_field_prob")
 
@@ -260,9 +260,8 @@ def beams_in_base(translation, quaternion, angles):
     translation (x, y, z) and quaternion (x, y, z, w): the laser frame's pose in the base
     frame; angles [B]: beam angles in the laser frame. Each beam's direction is rotated
     through the full 3-D rotation and projected onto the base's x/y plane, so a laser
-    mounted upside down (roll pi) simply gets mirrored bearings.
+    mounted upside down (roll pi) simply gets mirrored bearings
+    (:func:`florence_common.pose.beams_in_plane`).
     """
-    angles = np.asarray(angles, dtype=float)
-    dirs = np.column_stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)])
-    rotated = dirs @ transform_matrix(translation, quaternion)[:3, :3].T
-    return np.asarray(translation[:2], dtype=float), np.arctan2(rotated[:, 1], rotated[:, 0])
+    xy, bearings, _ = beams_in_plane(transform_matrix(translation, quaternion), angles)
+    return xy, bearings

@@ -124,3 +124,21 @@ def planar_matrix(x, y, yaw):
     m[:2, :2] = to_matrix((x, y, yaw))[:2, :2]
     m[0, 3], m[1, 3] = x, y
     return m
+
+
+def beams_in_plane(laser_pose, angles):
+    """Where a planar laser's beams go in its robot's plane: (origin (x, y) [m], bearings [B] [rad], up).
+
+    ``laser_pose``: 4x4 pose of the laser frame in the robot's frame (from tf); ``angles`` [B]: the beam
+    angles in the laser frame (a LaserScan's angle_min + i angle_increment). Each beam's direction goes
+    through the full 3-D rotation and is projected onto the robot's x/y plane, so a laser mounted upside
+    down (roll pi) simply gets mirrored bearings: no special case. ``up`` is the z component of the
+    laser's z axis in the robot frame: 1 upright, -1 upside down, anything between a tilted laser whose
+    beams leave the plane.
+    """
+    m = np.asarray(laser_pose, dtype=float)
+    angles = np.asarray(angles, dtype=float)
+    rotation = m[:3, :3]
+    dx = rotation[0, 0] * np.cos(angles) + rotation[0, 1] * np.sin(angles)
+    dy = rotation[1, 0] * np.cos(angles) + rotation[1, 1] * np.sin(angles)
+    return m[:2, 3].copy(), np.arctan2(dy, dx), float(rotation[2, 2])

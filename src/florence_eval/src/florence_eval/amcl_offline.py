@@ -16,44 +16,27 @@ Errors are reported in the map frame and, for the bias, split along the true hea
 """
 
 import math
-import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
-import rospkg
-import yaml
 from amcl.localizer import Localizer, config_from_params
 from amcl.sensor import beams_in_base
 
 from florence_common import angles
 from florence_common.maps import map_file
 from florence_common.pose import matrix_to_transform
+from florence_eval import shipped
+from florence_eval.shipped import TURTLEBOT_CONTROL, XACRO
 from florence_eval.tour import APARTMENT_LOOP, APARTMENT_START, convergence_index, follow, path_length, tour
 
-TURTLEBOT_CONTROL = Path(rospkg.RosPack().get_path("turtlebot_control"))
 LAUNCH = TURTLEBOT_CONTROL / "config" / "amcl_turtlebot_control.launch"
 WORLD = map_file("apartment", "apartment.world.yaml")
 MAP_YAML = map_file("apartment", "apartment.yaml")
-XACRO = TURTLEBOT_CONTROL / "urdf" / "florence_turtlebot.urdf.xacro"
 
 
 def launch_params(path=LAUNCH, node="amcl", args=None):
-    """{name: value} of the ``<param>``s of ``node`` in a launch file; ``$(arg x)`` from ``args`` or the arg's
-    default. Values are typed as roslaunch types them (YAML scalars: true, 0.1, 15000 ...)."""
-    root = ET.parse(path).getroot()
-    argv = {a.get("name"): a.get("default", a.get("value")) for a in root.iter("arg")}
-    argv.update({k: str(v) for k, v in (args or {}).items()})
-    out = {}
-    for n in root.iter("node"):
-        if n.get("name") != node:
-            continue
-        for p in n.iter("param"):
-            text = p.get("value")
-            for name, value in argv.items():
-                text = text.replace(f"$(arg {name})", str(value))
-            out[p.get("name")] = yaml.safe_load(text) if p.get("type") != "str" else text
-    return out
+    """amcl's ``<param>``s in its shipped launch file (florence_eval.shipped.launch_params)."""
+    return shipped.launch_params(path, node, args)
 
 
 def make_config(params, **overrides):

@@ -29,16 +29,14 @@ def make_goal(x, y, yaw, frame="map"):
     return MoveBaseGoal(target_pose=convert.pose_stamped(x, y, yaw, frame))
 
 
-class NavSession:
-    """An actionlib client of move_base plus a recorder of ground truth and collisions."""
+class TruthRecorder:
+    """A recorder of florence_sim's ground truth (the robot's pose and speeds) and collisions."""
 
-    def __init__(self, action="move_base"):
+    def __init__(self):
         self.lock = threading.Lock()
         self.truth = []  # (t [s], x [m], y [m], yaw [rad], v [m/s], w [rad/s])
         self.collisions = 0
         self.collision_poses = []  # ground truth (t, x, y, yaw, v, w) when the bumper count went up
-        self.client = actionlib.SimpleActionClient(action, MoveBaseAction)
-        self._make_plan = None  # ~make_plan's proxy, made on first use
         self.subs = [
             rospy.Subscriber("base_pose_ground_truth", Odometry, self._on_truth, queue_size=100),
             rospy.Subscriber("collisions", UInt32, self._on_collisions, queue_size=10),
@@ -75,6 +73,15 @@ class NavSession:
         with self.lock:
             first = bisect.bisect_left(self.truth, since, key=lambda row: row[0])
             return np.array(self.truth[first:]).reshape(-1, 6)
+
+
+class NavSession(TruthRecorder):
+    """An actionlib client of move_base plus a recorder of ground truth and collisions."""
+
+    def __init__(self, action="move_base"):
+        super().__init__()
+        self.client = actionlib.SimpleActionClient(action, MoveBaseAction)
+        self._make_plan = None  # ~make_plan's proxy, made on first use
 
     def is_active(self):
         """Whether move_base has accepted the current goal and works on it (ACTIVE)."""
