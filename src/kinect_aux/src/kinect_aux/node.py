@@ -33,6 +33,7 @@ from std_msgs.msg import Float64, UInt8, UInt16
 from florence_common.params import FRAME, Param, ParamTable
 from florence_common_ros.diagnostics import ERROR, OK, WARN, Diagnostics
 from florence_common_ros.node import read_params, run
+from florence_common_ros.throttle import KindThrottle
 from kinect_aux.motor import decode, led_command, tilt_command
 from openni_camera import freenect, worker
 
@@ -61,7 +62,7 @@ class KinectAuxNode:
         self.tilt_target = None  # [deg] the last command sent (sent again after a reconnect)
         self.led = None
         self.counts = {"states": 0, "no angle": 0, "tilt commands": 0, "clamped": 0, "ignored": 0, "failed": 0}
-        self.last_problem = ""
+        self.warn = KindThrottle(f"{NAME}: ", period=2.0)
         self.last_state = None
         self.joint_position = None  # [rad]
         self.lost_said = None
@@ -86,19 +87,15 @@ class KinectAuxNode:
         self.link.start()
 
     # --- commands ----------------------------------------------------------------------------------------------------
-    def _problem(self, text):
-        self.last_problem = text
-        rospy.logwarn_throttle(2.0, f"{NAME}: {text}")
-
     def _on_tilt(self, msg):
         degrees, note = tilt_command(msg.data)
         if degrees is None:
             self.counts["ignored"] += 1
-            self._problem(note)
+            self.warn("tilt ignored", note)
             return
         if note:
             self.counts["clamped"] += 1
-            self._problem(note)
+            self.warn("tilt clamped", note)
         with self.lock:
             self.tilt_target = degrees
         self.counts["tilt commands"] += 1
@@ -108,7 +105,7 @@ class KinectAuxNode:
         option, problem = led_command(msg.data)
         if option is None:
             self.counts["ignored"] += 1
-            self._problem(problem)
+            self.warn("led ignored", problem)
             return
         with self.lock:
             self.led = option
@@ -116,7 +113,7 @@ class KinectAuxNode:
 
     def _send(self, command):
         if not self.link.send(command):
-            self._problem(f"'{command}' kept for when the motor is back ({self.link.reason})")
+            self.warn("not connected", f"'{command}' kept for when the motor is back ({self.link.reason})")
 
     # --- the worker ----------------------------------------------------------------------------------------------
     def _on_event(self, kind, text):
@@ -148,7 +145,7 @@ class KinectAuxNode:
         try:
             state = decode(record.payload)
         except Exception as exc:  # noqa: BLE001 - a damaged record is skipped, the stream goes on
-            self._problem(f"motor state dropped: {exc!r}")
+            self.warn("state", f"motor state dropped: {exc!r}")
             return
         stamp = rospy.Time.now()
         self.last_state = state
@@ -182,7 +179,7 @@ class KinectAuxNode:
             return
         if event.get("event") == "command" and not event.get("ok"):
             self.counts["failed"] += 1
-            self._problem(f"'{event.get('command')}' failed: {event.get('error')}")
+            self.warn("command failed", f"'{event.get('command')}' failed: {event.get('error')}")
 
     # --- diagnostics ---------------------------------------------------------------------------------------------
     def _diag_motor(self, stat):
@@ -205,7 +202,7 @@ class KinectAuxNode:
 
     def _diag_commands(self, stat):
         if self.counts["ignored"] or self.counts["failed"]:
-            stat.summary(WARN, self.last_problem)
+            stat.summary(WARN, self.warn.latest)
         else:
             stat.summary(OK, "no bad commands")
         with self.lock:
@@ -213,7 +210,7 @@ class KinectAuxNode:
             stat.add("LED", "unchanged" if self.led is None else self.led)
         for key, value in self.counts.items():
             stat.add(key.capitalize(), value)
-        stat.add("Last problem", self.last_problem)
+        stat.add("Last problem", self.warn.latest)
         return stat
 
     def shutdown(self):

@@ -33,6 +33,7 @@ from florence_common.params import FRAME, Param, ParamTable
 from florence_common_ros.convert import array_to_image
 from florence_common_ros.diagnostics import ERROR, OK, WARN, Diagnostics
 from florence_common_ros.node import read_params, run
+from florence_common_ros.throttle import KindThrottle
 from openni_camera import camera_info, freenect, kinect, worker
 from openni_camera.device import KinectLink
 from openni_camera.registration import POINT_FIELDS, POINT_STEP, Registration
@@ -137,6 +138,7 @@ class OpenniCameraNode:
         self.dropped_by_worker = 0
         self.messages = deque(maxlen=5)
         self.lost_said = None
+        self.warn = KindThrottle(f"{NAME}: ")
 
         self.pub_depth = rospy.Publisher("depth/image", Image, queue_size=2)
         self.pub_depth_info = rospy.Publisher("depth/camera_info", CameraInfoMsg, queue_size=2)
@@ -198,7 +200,7 @@ class OpenniCameraNode:
                 self._on_video(record)
         except Exception as exc:  # noqa: BLE001 - one bad frame must not end the stream
             self.counts["errors"] += 1
-            rospy.logwarn_throttle(5.0, f"{NAME}: frame dropped: {exc!r}")
+            self.warn(f"{record.kind!r} frame", f"frame dropped: {exc!r}")
 
     def _stamp(self, host_time, offset):
         return rospy.Time.from_sec(rospy.get_time() - (time.monotonic() - host_time) + offset)
