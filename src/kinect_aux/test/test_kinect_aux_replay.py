@@ -76,7 +76,7 @@ def test_commands_out_of_range_are_clamped_or_refused(aux, publisher):
     assert commands()[2]["Tilt target [deg]"] == "31"  # still the last good command
     led.publish(UInt16(9))
     wait_for(lambda: int(commands()[2].get("Ignored", 0)) == 2, TIMEOUT, what="LED 9 ignored")
-    level, message, values = commands()
+    level, message, _ = commands()
     assert level == WARN and "LED option 9 ignored" in message
     led.publish(UInt16(2))
     wait_for(lambda: commands()[2].get("LED") == "2", TIMEOUT, what="LED 2 taken")

@@ -14,8 +14,7 @@ import numpy as np
 import pytest
 
 from florence_common.processes import roslaunch, stop_all, wait_for
-from florence_harness.kinect_replay import (FAKENECT_LIBRARY, Probe, Truth, cloud_xyz_rgb, record_dump,
-                                            start_driver)
+from florence_harness.kinect_replay import FAKENECT_LIBRARY, Probe, Truth, cloud_xyz_rgb, record_dump, start_driver
 from openni_camera import camera_info as ci
 from openni_camera import kinect
 
@@ -32,9 +31,9 @@ TIMEOUT = 90.0  # [s] generous: the suite runs on a loaded 2-core machine
 def scene(ros_master, rospy_node, tf_buffer, tmp_path_factory):
     import tf2_ros
     from sensor_msgs.msg import CameraInfo, Image, LaserScan, PointCloud2
-    from user_tracker_ni.msg import TrackedUsers
 
     from florence_common_ros.convert import transform_stamped
+    from user_tracker_ni.msg import TrackedUsers
 
     dump = record_dump(tmp_path_factory.mktemp("kinect") / "scene", PEOPLE, *ROBOT, tilt=TILT, frames=3, repeat=300)
     truth = Truth(dump)
@@ -97,7 +96,7 @@ def test_depth_matches_the_scene_within_quantisation(scene):
     allowed = 0.5 * kinect.quantisation_step(rendered[seen], focal=focal) + 1e-4
     assert (error <= allowed).all(), f"worst {error.max():.4f} m where {allowed[error.argmax()]:.4f} m is allowed"
     assert error.max() > 0.002  # the 11 bits do quantise: at 3-4 m a step is 3-5 cm
-    info = scene["probe"].get("/camera_raw/depth/camera_info") or scene["probe"].wait_for("/camera_raw/depth/camera_info")
+    info = scene["probe"].wait_for("/camera_raw/depth/camera_info")
     assert list(info.K) == pytest.approx([focal, 0, 319.5, 0, focal, 239.5, 0, 0, 1])
 
 
@@ -203,7 +202,7 @@ def test_kinect_scan_on_the_driver_cloud_matches_the_scene(scene):
     assert np.median(error) < 0.03 and np.mean(error < 0.1) > 0.9, np.percentile(error, [50, 90, 100])
     for person in truth.people:  # each person's legs at their bearing, about their distance
         centre = (np.array([person["x"], person["y"], 0.5]) - frame[:3, 3]) @ frame[:3, :3]
-        beam = int(round((math.atan2(centre[1], centre[0]) - scan.angle_min) / scan.angle_increment))
+        beam = round((math.atan2(centre[1], centre[0]) - scan.angle_min) / scan.angle_increment)
         nearest = np.nanmin(got[beam - 3:beam + 4])
         assert abs(nearest - math.hypot(centre[0], centre[1])) < 0.25, (person["id"], nearest)
 
