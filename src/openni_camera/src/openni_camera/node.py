@@ -26,17 +26,16 @@ from collections import deque
 import numpy as np
 import rospy
 from sensor_msgs.msg import CameraInfo as CameraInfoMsg
-from sensor_msgs.msg import Image, PointCloud2, PointField
-from std_msgs.msg import Header
+from sensor_msgs.msg import Image, PointCloud2
 
 from florence_common.params import FRAME, Param, ParamTable
-from florence_common_ros.convert import array_to_image
 from florence_common_ros.diagnostics import ERROR, OK, WARN, Diagnostics
 from florence_common_ros.node import read_params, run
 from florence_common_ros.throttle import KindThrottle
 from openni_camera import camera_info, freenect, kinect, worker
 from openni_camera.device import KinectLink
-from openni_camera.registration import POINT_FIELDS, POINT_STEP, Registration
+from openni_camera.messages import camera_info_msg, cloud_msg, image_msg
+from openni_camera.registration import Registration
 
 NAME = "openni_camera"
 
@@ -79,29 +78,6 @@ PARAMS = ParamTable(
     Param("frame_timeout", float, 2.0, "no frame for this long while streaming means the device is lost (it is "
           "reopened)", unit="s", gt=0),
 )
-
-
-def camera_info_msg(info, stamp, frame_id):
-    msg = CameraInfoMsg()
-    msg.header.stamp, msg.header.frame_id = stamp, frame_id
-    msg.width, msg.height = info.width, info.height
-    msg.distortion_model = info.distortion_model
-    msg.D, msg.K, msg.R, msg.P = list(info.D), list(info.K), list(info.R), list(info.P)
-    return msg
-
-
-def cloud_msg(cloud, stamp, frame_id):
-    """PointCloud2 of a (H, W, 4) float32 cloud (Registration.cloud)."""
-    h, w = cloud.shape[:2]
-    msg = PointCloud2()
-    msg.header.stamp, msg.header.frame_id = stamp, frame_id
-    msg.height, msg.width = h, w
-    msg.fields = [PointField(name, offset, PointField.FLOAT32, 1) for name, offset in POINT_FIELDS]
-    msg.is_bigendian = False
-    msg.point_step, msg.row_step = POINT_STEP, POINT_STEP * w
-    msg.is_dense = False
-    msg.data = cloud.tobytes()
-    return msg
 
 
 class Gate:
@@ -219,7 +195,7 @@ class OpenniCameraNode:
         stamp = self._stamp(record.host_time, self.p["image_time_offset"])
         frame = self.p["rgb_frame_id"]
         if self.pub_rgb.get_num_connections():
-            self.pub_rgb.publish(array_to_image(rgb, "rgb8", Header(stamp=stamp, frame_id=frame)))
+            self.pub_rgb.publish(image_msg(rgb, "rgb8", stamp, frame))
         if self.pub_rgb_info.get_num_connections():
             self.pub_rgb_info.publish(camera_info_msg(self.rgb_info, stamp, frame))
 
@@ -258,7 +234,7 @@ class OpenniCameraNode:
             self.conversion_ms.append(1000.0 * (time.perf_counter() - start))
 
         if depth is not None:
-            self.pub_depth.publish(array_to_image(depth, "32FC1", Header(stamp=stamp, frame_id=frame)))
+            self.pub_depth.publish(image_msg(depth, "32FC1", stamp, frame))
         if want_info:
             self.pub_depth_info.publish(camera_info_msg(info, stamp, frame))
         if cloud is not None:
