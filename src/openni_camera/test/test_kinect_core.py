@@ -248,3 +248,36 @@ def test_messages_serialise_as_the_generated_code():
         assert a.getvalue() == b.getvalue()
         assert plain_class().deserialize(a.getvalue()).data == plain.data
         assert fast._type == plain._type and fast._md5sum == plain._md5sum
+
+
+def test_the_shift_path_equals_the_general_transform():
+    """The fast path (colour camera only translated sideways) gives what the general transform gives; a rotated
+    colour camera takes the general one and still puts a point where it projects."""
+    from openni_camera.registration import _register
+
+    depth, rgb = ci.default_depth(), ci.default_rgb()
+    reg = Registration(depth, rgb)
+    assert reg.shift_only
+    rng = np.random.default_rng(3)
+    scene = np.where(rng.random((480, 640)) < 0.1, np.nan, rng.uniform(0.6, 4.0, (480, 640)))
+    raw = _raw(scene, depth)
+    general = np.empty((480, 640), np.float32)
+    _register(raw, reg.table, reg.depth_ray_x, reg.depth_ray_y, reg.rot, reg.t, rgb.fx, rgb.fy, rgb.cx, rgb.cy,
+              general)
+    fast = reg.register(raw)
+    same = (fast == general) | (np.isnan(fast) & np.isnan(general))
+    assert same.mean() > 0.9999  # rounding ties at most
+
+    yaw = math.radians(2.0)
+    rotation = [[math.cos(yaw), 0, math.sin(yaw)], [0, 1, 0], [-math.sin(yaw), 0, math.cos(yaw)]]
+    turned = Registration(depth, rgb, rotation=rotation)
+    assert not turned.shift_only
+    one = np.full((480, 640), kinect.RAW_NO_VALUE, dtype=np.uint16)
+    one[200, 320] = 700
+    z = turned.table[700]
+    p = np.array([(320 - depth.cx) / depth.fx * z, (200 - depth.cy) / depth.fy * z, z])
+    q = np.array(rotation).T @ (p - np.array(kinect.RGB_IN_DEPTH))
+    out = turned.register(one)
+    (v, u), = np.argwhere(np.isfinite(out))
+    assert (v, u) == (round(rgb.fy * q[1] / q[2] + rgb.cy), round(rgb.fx * q[0] / q[2] + rgb.cx))
+    assert out[v, u] == pytest.approx(q[2])

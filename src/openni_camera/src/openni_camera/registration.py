@@ -49,6 +49,40 @@ def _register(raw, table, ray_x, ray_y, rot, t, fx, fy, cx, cy, out):  # pragma:
             iv = math.floor(fy * py / pz + cy + 0.5)
             if 0 <= iu < out_w and 0 <= iv < out_h and pz < out[iv, iu]:
                 out[iv, iu] = pz
+    _fill_gaps(out)
+
+
+@numba.njit(cache=True, nogil=True)
+def _register_shift(raw, table, inverse, col, row, shift_u, shift_v, out):  # pragma: no cover - compiled
+    """_register for a colour camera only translated across the image plane (no rotation, no
+    offset along the axis): the colour pixel is col[u] + shift_u / z, row[v] + shift_v / z
+    (col and row already hold the intrinsics and the + 0.5 of rounding)."""
+    height, width = raw.shape
+    out_h, out_w = out.shape
+    for v in range(out_h):
+        for u in range(out_w):
+            out[v, u] = np.inf
+    for v in range(height):
+        r = row[v]
+        for u in range(width):
+            code = raw[v, u]
+            z = table[code]
+            if not z > 0.0:
+                continue
+            fu = col[u] + shift_u * inverse[code]
+            fv = r + shift_v * inverse[code]
+            if fu < 0.0 or fv < 0.0:
+                continue
+            iu = int(fu)
+            iv = int(fv)
+            if iu < out_w and iv < out_h and z < out[iv, iu]:
+                out[iv, iu] = z
+    _fill_gaps(out)
+
+
+@numba.njit(cache=True, nogil=True)
+def _fill_gaps(out):  # pragma: no cover - compiled
+    out_h, out_w = out.shape
     for v in range(out_h):
         for u in range(1, out_w - 1):
             if out[v, u] == np.inf:
@@ -95,12 +129,19 @@ class Registration:
         rot = np.eye(3) if rotation is None else np.asarray(rotation, dtype=np.float64).reshape(3, 3)
         self.rot = np.ascontiguousarray(rot.T)
         self.t = -self.rot @ np.asarray(rgb_in_depth, dtype=np.float64)
+        # no rotation and no offset along the axis (the Kinect's cameras): a shift by 1/z per pixel
+        self.shift_only = bool(np.allclose(self.rot, np.eye(3)) and abs(self.t[2]) < 1e-9)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            self.inverse = np.where(np.isfinite(self.table), 1.0 / self.table, 0.0).astype(np.float64)
+        self.col = rgb.fx * self.depth_ray_x + rgb.cx + 0.5
+        self.row = rgb.fy * self.depth_ray_y + rgb.cy + 0.5
 
     def warm_up(self):
         """Compile (or load from numba's cache) both passes now, not on the first frame."""
         raw = np.full((2, 2), kinect.RAW_NO_VALUE, dtype=np.uint16)
         out = np.empty((2, 2), dtype=np.float32)
         _register(raw, self.table, self.depth_ray_x, self.depth_ray_y, self.rot, self.t, 1.0, 1.0, 0.0, 0.0, out)
+        _register_shift(raw, self.table, self.inverse, self.col[:2], self.row[:2], 1.0, 1.0, out)
         cloud = np.empty((2, 2, 4), dtype=np.float32)
         _cloud(out, np.zeros((2, 2, 3), dtype=np.uint8), self.rgb_ray_x, self.rgb_ray_y, cloud, cloud.view(np.uint32))
         return self
@@ -115,7 +156,11 @@ class Registration:
         r = self.rgb_info
         if out is None:
             out = np.empty((r.height, r.width), dtype=np.float32)
-        _register(raw, self.table, self.depth_ray_x, self.depth_ray_y, self.rot, self.t, r.fx, r.fy, r.cx, r.cy, out)
+        if self.shift_only:
+            _register_shift(raw, self.table, self.inverse, self.col, self.row, r.fx * self.t[0], r.fy * self.t[1], out)
+        else:
+            _register(raw, self.table, self.depth_ray_x, self.depth_ray_y, self.rot, self.t, r.fx, r.fy, r.cx, r.cy,
+                      out)
         return out
 
     def cloud(self, depth, rgb):
