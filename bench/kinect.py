@@ -30,6 +30,7 @@ import numpy as np
 from florence_eval.metrics import cpu_seconds
 from openni_camera.registration import Registration
 
+from florence_common.files import atomic_write
 from florence_common.maps import map_file
 from florence_common.processes import ManagedProcess, RosMaster, descendant_pids, wait_for
 from openni_camera import camera_info, fakenect_dump, kinect
@@ -217,9 +218,7 @@ def main():
               f"second): {100 * r['projected_total_share_at_30hz']:.0f} % of a core at 30 Hz")
     print(f"machine load (1 min average) {load['loadavg_1min_before']:.2f} -> {load['loadavg_1min_after']:.2f} on "
           f"{load['cpus']} CPUs: figures on a loaded machine are the machine's, not the code's")
-    tmp = RESULTS.with_suffix(".json.tmp")
-    tmp.write_text(json.dumps(results, indent=2) + "\n")
-    os.replace(tmp, RESULTS)
+    atomic_write(RESULTS, (json.dumps(results, indent=2) + "\n").encode())
     print(f"wrote {RESULTS} and {RESULTS.with_suffix('.png')}")
 
 

@@ -27,6 +27,7 @@ import threading
 
 import rospy
 from openni_camera.device import KinectLink
+from openni_camera.link_log import LinkLog
 from sensor_msgs.msg import Imu, JointState
 from std_msgs.msg import Float64, UInt8, UInt16
 
@@ -65,7 +66,7 @@ class KinectAuxNode:
         self.warn = KindThrottle(f"{NAME}: ", period=2.0)
         self.last_state = None
         self.joint_position = None  # [rad]
-        self.lost_said = None
+        self.log = LinkLog(NAME, p["reconnect_interval"])
 
         self.pub_imu = rospy.Publisher("imu", Imu, queue_size=10)
         self.pub_tilt = rospy.Publisher("cur_tilt_angle", Float64, queue_size=10)
@@ -117,24 +118,13 @@ class KinectAuxNode:
 
     # --- the worker ----------------------------------------------------------------------------------------------
     def _on_event(self, kind, text):
+        self.log(self.link, kind, text, what="reading")
         if kind == "connected":
-            rospy.loginfo("%s: reading the %s", NAME, text)
             with self.lock:
                 pending = ([f"tilt {self.tilt_target:g}"] if self.tilt_target is not None else []) + \
                           ([f"led {self.led}"] if self.led is not None else [])
             for command in pending:  # what was asked before (or while) the motor was away
                 self.link.send(command)
-        elif kind == "lost":
-            if text != self.lost_said:
-                (rospy.logwarn if self.link.connects else rospy.logerr)(
-                    "%s: %s; trying again every %.1f s or more", NAME, text, self.p["reconnect_interval"])
-                self.lost_said = text
-            else:
-                rospy.logdebug("%s: %s", NAME, text)
-        elif kind == "warning":
-            rospy.logwarn("%s: %s", NAME, text)
-        else:
-            rospy.logdebug("%s: worker: %s", NAME, text)
 
     def _on_record(self, record):
         if record.kind == worker.EVENT:

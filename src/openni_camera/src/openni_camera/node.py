@@ -34,6 +34,7 @@ from florence_common_ros.node import read_params, run
 from florence_common_ros.throttle import KindThrottle
 from openni_camera import camera_info, freenect, kinect, worker
 from openni_camera.device import KinectLink
+from openni_camera.link_log import LinkLog
 from openni_camera.messages import camera_info_msg, cloud_msg, image_msg
 from openni_camera.registration import Registration
 
@@ -112,8 +113,7 @@ class OpenniCameraNode:
         self.conversion_ms = deque(maxlen=300)
         self.counts = {"depth": 0, "rgb": 0, "clouds": 0, "unpaired": 0, "skipped": 0, "errors": 0}
         self.dropped_by_worker = 0
-        self.messages = deque(maxlen=5)
-        self.lost_said = None
+        self.log = LinkLog(NAME, p["reconnect_interval"])
         self.warn = KindThrottle(f"{NAME}: ")
 
         self.pub_depth = rospy.Publisher("depth/image", Image, queue_size=2)
@@ -151,21 +151,7 @@ class OpenniCameraNode:
 
     # --- the worker's records (its reading thread) -------------------------------------------------------------------
     def _on_event(self, kind, text):
-        if kind == "connected":
-            rospy.loginfo("%s: streaming the %s", NAME, text)
-        elif kind == "lost":  # said once per reason: a missing Kinect is not news every second
-            if text != self.lost_said:
-                (rospy.logwarn if self.link.connects else rospy.logerr)(
-                    "%s: %s; trying again every %.1f s or more", NAME, text, self.p["reconnect_interval"])
-                self.lost_said = text
-            else:
-                rospy.logdebug("%s: %s", NAME, text)
-        elif kind == "warning":
-            rospy.logwarn("%s: %s", NAME, text)
-            self.messages.append(text)
-        else:
-            rospy.logdebug("%s: worker: %s", NAME, text)
-            self.messages.append(text)
+        self.log(self.link, kind, text)
 
     def _on_record(self, record):
         self.dropped_by_worker = record.dropped
@@ -264,8 +250,8 @@ class OpenniCameraNode:
                 stat.add("Dump records left out", len(c.problems))
                 if c.problems:
                     stat.add("First left out", c.problems[0])
-        if self.messages:
-            stat.add("Last message", self.messages[-1])
+        if self.log.messages:
+            stat.add("Last message", self.log.messages[-1])
         return stat
 
     def _diag_processing(self, stat):

@@ -30,9 +30,7 @@ from openni_camera import kinect
 def _register(raw, table, ray_x, ray_y, rot, t, fx, fy, cx, cy, out):  # pragma: no cover - compiled
     height, width = raw.shape
     out_h, out_w = out.shape
-    for v in range(out_h):
-        for u in range(out_w):
-            out[v, u] = np.inf
+    out[:, :] = np.inf
     for v in range(height):
         for u in range(width):
             z = table[raw[v, u]]
@@ -59,9 +57,7 @@ def _register_shift(raw, table, inverse, col, row, shift_u, shift_v, out):  # pr
     (col and row already hold the intrinsics and the + 0.5 of rounding)."""
     height, width = raw.shape
     out_h, out_w = out.shape
-    for v in range(out_h):
-        for u in range(out_w):
-            out[v, u] = np.inf
+    out[:, :] = np.inf
     for v in range(height):
         r = row[v]
         for u in range(width):
