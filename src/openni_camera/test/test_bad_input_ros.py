@@ -7,8 +7,8 @@ import shutil
 
 import pytest
 
-from florence_common.processes import ManagedProcess, stop_all, wait_for
-from florence_harness.kinect_replay import FAKENECT_LIBRARY, Probe, record_dump, start_driver
+from florence_common.processes import ManagedProcess, wait_for
+from florence_harness.kinect_replay import FAKENECT_LIBRARY, Probe, record_dump, start_driver, stop_together
 from openni_camera import fakenect_dump
 
 pytestmark = pytest.mark.ros
@@ -55,7 +55,7 @@ def nodes(ros_master, rospy_node, tmp_path_factory):
         raise
     finally:
         probe.close()
-        stop_all(*procs.values())
+        stop_together(procs.values())
 
 
 def test_a_damaged_dump_plays_what_it_has(nodes):
@@ -130,4 +130,4 @@ def test_cannot_start_says_why(ros_master):
             assert proc.proc.returncode == 1, (args, proc.output())
             assert words in proc.output(), (args, proc.output())
     finally:
-        stop_all(*procs)
+        stop_together(procs)

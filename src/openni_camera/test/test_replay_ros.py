@@ -13,8 +13,16 @@ import math
 import numpy as np
 import pytest
 
-from florence_common.processes import roslaunch, stop_all, wait_for
-from florence_harness.kinect_replay import FAKENECT_LIBRARY, Probe, Truth, cloud_xyz_rgb, record_dump, start_driver
+from florence_common.processes import roslaunch, wait_for
+from florence_harness.kinect_replay import (
+    FAKENECT_LIBRARY,
+    Probe,
+    Truth,
+    cloud_xyz_rgb,
+    record_dump,
+    start_driver,
+    stop_together,
+)
 from openni_camera import camera_info as ci
 from openni_camera import kinect
 
@@ -75,7 +83,7 @@ def scene(ros_master, rospy_node, tf_buffer, tmp_path_factory):
         raise
     finally:
         probe.close()
-        stop_all(*procs)
+        stop_together(procs)
 
 
 def test_depth_matches_the_scene_within_quantisation(scene):

@@ -148,3 +148,18 @@ def cloud_xyz_rgb(msg):
     packed = data[..., 12:16].copy().view(np.uint32).reshape(msg.height, msg.width)
     rgb = np.stack([(packed >> 16) & 255, (packed >> 8) & 255, packed & 255], axis=-1).astype(np.uint8)
     return xyz, rgb
+
+
+def stop_together(procs):
+    """Stop processes all at once (each by its process group, as ManagedProcess.stop does): a node's
+    orderly shutdown takes seconds on a loaded machine, and one after the other they add up.
+    Prints the output of any that had ended before."""
+    procs = list(procs)
+    for proc in procs:
+        if not proc.running():
+            print(f"----- {proc.name} exited early -----\n{proc.output()}")
+    threads = [threading.Thread(target=proc.stop, daemon=True) for proc in procs]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(60.0)

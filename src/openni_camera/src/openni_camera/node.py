@@ -110,6 +110,7 @@ class OpenniCameraNode:
         self.depth_gate, self.rgb_gate = Gate(p["depth_rate"]), Gate(p["rgb_rate"])
         self.lock = threading.Lock()
         self.rgb = None  # (host time [s], (H, W, 3) uint8) of the newest colour frame
+        self.waiting = None  # (host time, stamp, raw, registered depth or None) of a depth frame awaiting its colour
         self.conversion_ms = deque(maxlen=300)
         self.counts = {"depth": 0, "rgb": 0, "clouds": 0, "unpaired": 0, "skipped": 0, "errors": 0}
         self.dropped_by_worker = 0
@@ -184,6 +185,22 @@ class OpenniCameraNode:
             self.pub_rgb.publish(image_msg(rgb, "rgb8", stamp, frame))
         if self.pub_rgb_info.get_num_connections():
             self.pub_rgb_info.publish(camera_info_msg(self.rgb_info, stamp, frame))
+        waiting, self.waiting = self.waiting, None
+        if waiting is not None:  # a depth frame that came before its colour frame
+            host_time, stamp, raw, on_rgb_grid = waiting
+            if abs(record.host_time - host_time) <= self.p["sync_slop"]:
+                start = time.perf_counter()
+                cloud = self.registration.cloud(self.registration.register(raw) if on_rgb_grid is None else
+                                                on_rgb_grid, rgb)
+                self.conversion_ms.append(1000.0 * (time.perf_counter() - start))
+                self._publish_cloud(cloud, stamp)
+            else:
+                self.counts["unpaired"] += 1
+
+    def _publish_cloud(self, cloud, stamp):
+        if self.pub_points.get_num_connections():
+            self.pub_points.publish(cloud_msg(cloud, stamp, self.p["rgb_frame_id"]))
+            self.counts["clouds"] += 1
 
     def _on_depth(self, record):
         if len(record.payload) != kinect.DEPTH_BYTES:
@@ -197,12 +214,14 @@ class OpenniCameraNode:
         raw = np.frombuffer(record.payload, dtype="<u2").reshape(kinect.HEIGHT, kinect.WIDTH)
         want_depth, want_info = self.pub_depth.get_num_connections(), self.pub_depth_info.get_num_connections()
         want_points = self.pub_points.get_num_connections()
-        colour = None
+        colour, wait = None, False
         if want_points:
             with self.lock:
                 rgb = self.rgb
             if rgb is not None and abs(rgb[0] - record.host_time) <= p["sync_slop"]:
                 colour = rgb[1]
+            elif rgb is None or rgb[0] < record.host_time:
+                wait = True  # the colour frame of this instant may be next: the cloud waits for it
             else:
                 self.counts["unpaired"] += 1
         registered = p["depth_registration"]
@@ -224,8 +243,11 @@ class OpenniCameraNode:
         if want_info:
             self.pub_depth_info.publish(camera_info_msg(info, stamp, frame))
         if cloud is not None:
-            self.pub_points.publish(cloud_msg(cloud, stamp, p["rgb_frame_id"]))
-            self.counts["clouds"] += 1
+            self._publish_cloud(cloud, stamp)
+        if wait:
+            if self.waiting is not None:
+                self.counts["unpaired"] += 1
+            self.waiting = (record.host_time, stamp, raw, on_rgb_grid)
 
     # --- diagnostics ---------------------------------------------------------------------------------------------
     def _diag_connection(self, stat):
