@@ -110,6 +110,8 @@ class OpenniCameraNode:
         self.depth_gate, self.rgb_gate = Gate(p["depth_rate"]), Gate(p["rgb_rate"])
         self.lock = threading.Lock()
         self.rgb = None  # (host time [s], (H, W, 3) uint8) of the newest colour frame
+        # the cloud's array, filled again every frame: rospy serialises a message within publish()
+        self.cloud_buffer = np.empty((self.rgb_info.height, self.rgb_info.width, 4), dtype=np.float32)
         self.waiting = None  # (host time, stamp, raw, registered depth or None) of a depth frame awaiting its colour
         self.conversion_ms = deque(maxlen=300)
         self.counts = {"depth": 0, "rgb": 0, "clouds": 0, "unpaired": 0, "skipped": 0, "errors": 0}
@@ -191,7 +193,7 @@ class OpenniCameraNode:
             if abs(record.host_time - host_time) <= self.p["sync_slop"]:
                 start = time.perf_counter()
                 cloud = self.registration.cloud(self.registration.register(raw) if on_rgb_grid is None else
-                                                on_rgb_grid, rgb)
+                                                on_rgb_grid, rgb, self.cloud_buffer)
                 self.conversion_ms.append(1000.0 * (time.perf_counter() - start))
                 self._publish_cloud(cloud, stamp)
             else:
@@ -234,7 +236,7 @@ class OpenniCameraNode:
         depth = None
         if want_depth:
             depth = on_rgb_grid if registered else self.registration.metres(raw)
-        cloud = self.registration.cloud(on_rgb_grid, colour) if colour is not None else None
+        cloud = self.registration.cloud(on_rgb_grid, colour, self.cloud_buffer) if colour is not None else None
         if on_rgb_grid is not None or depth is not None:
             self.conversion_ms.append(1000.0 * (time.perf_counter() - start))
 
