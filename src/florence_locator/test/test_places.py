@@ -171,13 +171,10 @@ def test_floor_map_refuses_walls_unknown_space_and_off_the_map():
 
 
 def test_floor_map_of_the_apartment_accepts_the_shipped_hotspots():
-    import yaml
-    from PIL import Image
+    from map_server.mapfile import load_map
 
-    meta = yaml.safe_load(map_file("apartment", "apartment.yaml").read_text())
-    image = np.asarray(Image.open(map_file("apartment", meta["image"])))
-    occupancy = np.where(image <= 50, 100, np.where(image >= 250, 0, -1))[::-1]  # row 0 at the origin
-    floor = FloorMap(occupancy, meta["origin"], meta["resolution"])
+    grid = load_map(map_file("apartment", "apartment.yaml"))
+    floor = FloorMap(grid.data, grid.origin, grid.resolution)
     rooms = Rooms.load(map_file("apartment", "rooms.yaml"))
     for label, spot in rooms.hotspots.items():
         assert floor.problem(spot.x, spot.y, clearance=0.15) is None, label
