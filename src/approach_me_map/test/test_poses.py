@@ -79,12 +79,18 @@ def test_without_a_map_every_pose_is_free():
 
 # --- the last half metre -------------------------------------------------------------------------------------
 class Robot:
-    """A unicycle that follows commands through acceleration limits (velocity_filter: 1 m/s^2, 1 rad/s^2)."""
+    """A unicycle that follows commands through acceleration limits (velocity_filter: 1 m/s^2, 1 rad/s^2),
+    ``latency`` [s] late."""
 
-    def __init__(self, x, y, yaw):
+    def __init__(self, x, y, yaw, latency=0.0):
         self.x, self.y, self.yaw, self.v, self.w = x, y, yaw, 0.0, 0.0
+        self.queue = [(0.0, 0.0)] * round(latency / 0.05)
+        self.turned = 0.0
 
     def step(self, v, w, dt):
+        self.queue.append((v, w))
+        v, w = self.queue.pop(0)
+        self.turned += abs(self.w) * dt
         self.v += max(-dt, min(dt, v - self.v))
         self.w += max(-dt, min(dt, w - self.w))
         self.yaw = float(angles.wrap(self.yaw + self.w * dt))
@@ -116,6 +122,19 @@ def test_align_ends_at_safe_distance_facing_the_user(start):
     assert distance == pytest.approx(0.5, abs=0.04)
     assert abs(error) < math.radians(3)
     assert nearest >= min(0.45, math.hypot(start[0], start[1]) - 0.01)  # never nearer than personal space
+
+
+def test_align_with_a_late_robot_does_not_oscillate():
+    """Commands acting 0.4 s late: the turns and the move end when they cross their target, no way back."""
+    user = (0.0, 0.0)
+    robot = Robot(0.7, 0.2, 2.0, latency=0.4)
+    _, first_error = Align.geometry((robot.x, robot.y, robot.yaw), user)
+    step, nearest = align(robot, user)
+    distance, error = Align.geometry((robot.x, robot.y, robot.yaw), user)
+    assert step.ok, step.why
+    assert distance == pytest.approx(0.5, abs=0.08) and abs(error) < math.radians(8)
+    assert robot.turned < abs(first_error) + math.radians(10)  # no turning back and forth
+    assert nearest > 0.42
 
 
 def test_align_stops_short_of_an_obstacle_ahead():

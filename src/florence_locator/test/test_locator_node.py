@@ -189,8 +189,8 @@ def system(ros_master, rospy_node, tf_buffer, publisher, tmp_path_factory):
                f"_rooms_file:={map_file('apartment', 'rooms.yaml')}", f"_hotspots_file:={hotspots}",
                f"_tracker_service:={NS}/user_tracker_ni_node/Stop"),
         rosrun(ros_master, "detect_users", "detect_users_node", *common, "cmd_vel:=cmd_vel_mux/input/detect_users",
-               f"_tracker:={NS}/user_tracker_ni_node", "_settle_time:=0.1", "_look_time:=0.3", "_max_speed:=3.0",
-               "_decel:=3.0"),
+               f"_tracker:={NS}/user_tracker_ni_node", "_settle_time:=0.1", "_look_time:=0.3", "_look_frames:=4",
+               "_max_speed:=3.0", "_decel:=3.0"),
         rosrun(ros_master, "approach_me_map", "approach_me_map_node", *common,
                "cmd_vel:=cmd_vel_mux/input/approach_me_map", "_align_speed:=0.25"),
     ]

@@ -154,7 +154,7 @@ class ApproachMeMapNode:
         with self.lock:
             if not self.running:
                 return
-        m, why = lookup_matrix(self.tf_buffer, self.p.base_frame, msg.header.frame_id, msg.header.stamp, 0.1)
+        m, why = lookup_matrix(self.tf_buffer, self.p.base_frame, msg.header.frame_id, rospy.Time(0), 0.0)  # fixed
         if m is None:
             rospy.logwarn_throttle(5.0, LOG + "scan skipped: %s", why)
             return
@@ -177,7 +177,9 @@ class ApproachMeMapNode:
             user = self.user if self.running else None
         if user is None or not msg.user_ids or len(msg.positions) != len(msg.user_ids) or not msg.frame_id:
             return
-        m, why = lookup_matrix(self.tf_buffer, self.p.map_frame, msg.frame_id, msg.stamp, 0.1)
+        # the latest map -> frame_id (amcl's map -> odom changes slowly; a lookup at the stamp fails
+        # whenever amcl's transform comes late)
+        m, why = lookup_matrix(self.tf_buffer, self.p.map_frame, msg.frame_id, rospy.Time(0), 0.0)
         if m is None:
             rospy.logwarn_throttle(5.0, LOG + "tracked users skipped: %s", why)
             return

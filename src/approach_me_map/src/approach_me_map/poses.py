@@ -160,11 +160,14 @@ class AlignParams:
     max_turn: float = 0.6  # [rad/s]
     min_turn: float = 0.15  # [rad/s]
     turn_decel: float = 0.8  # [rad/s^2]
-    angle_tolerance: float = math.radians(2.0)  # [rad] facing the user this well ends a turn
-    distance_tolerance: float = 0.03  # [m] the straight move ends this near safe_distance
+    angle_tolerance: float = math.radians(2.0)  # [rad] facing the user this well ends a turn ...
+    angle_overshoot: float = math.radians(6.0)  # [rad] ... and so does having turned past by at most this
+    distance_tolerance: float = 0.03  # [m] the straight move ends this near safe_distance ...
+    distance_overshoot: float = 0.06  # [m] ... or having driven past it by at most this
     front_margin: float = 0.05  # [m] free space kept ahead of the robot's nose (laser)
     back_margin: float = 0.05  # [m] free space kept behind the robot (map)
     still_rate: float = 0.05  # [rad/s] and [m/s]: at rest below this
+    lead: float = 0.3  # [s] the braking looks this far ahead at the measured speed (late commands)
     accept_distance: float = 0.1  # [m] success: |distance - safe_distance| within this ...
     accept_angle: float = math.radians(10.0)  # [rad] ... and facing the user within this
     timeout: float = 25.0  # [s]
@@ -191,8 +194,8 @@ class Align:
         self.p = p
         self.phase = "turn"
         self.started = now
-        self.turns = 0
         self.blocked = ""
+        self.sign = 0.0  # direction of the turn or move under way (crossing the target ends it)
 
     @staticmethod
     def geometry(robot, user):
@@ -210,23 +213,30 @@ class Align:
         if now - self.started > p.timeout:
             return self._finish(distance, error, f"alignment took longer than {p.timeout:.0f} s")
         if self.phase in ("turn", "turn_again"):
-            if abs(error) > p.angle_tolerance:
-                return AlignStep(w=_profile(error, p.max_turn, p.min_turn, p.turn_decel))
+            crossed = self.sign * error < 0 and abs(error) <= p.angle_overshoot  # turned past: no way back
+            if abs(error) > p.angle_tolerance and not crossed:
+                self.sign = math.copysign(1.0, error)
+                ahead = error - speed[1] * p.lead  # where the turn will be when a command takes effect
+                w = _profile(ahead, p.max_turn, p.min_turn, p.turn_decel) if ahead * error > 0 else 0.0
+                return AlignStep(w=w)
             if not at_rest:
                 return AlignStep()
             if self.phase == "turn_again":
                 return self._finish(distance, error)
-            self.phase = "move"
+            self.phase, self.sign = "move", 0.0
         if self.phase == "move":
             remaining = distance - p.safe_distance
             free = front_free - p.front_margin if remaining > 0 else back_free - p.back_margin
-            if abs(remaining) <= p.distance_tolerance or free <= 0.0:
+            crossed = self.sign * remaining < 0 and abs(remaining) <= p.distance_overshoot
+            if abs(remaining) <= p.distance_tolerance or free <= 0.0 or crossed:
                 if free <= 0.0 and abs(remaining) > p.distance_tolerance:
                     self.blocked = "blocked ahead" if remaining > 0 else "no room behind"
-                self.phase = "turn_again"
+                self.phase, self.sign = "turn_again", 0.0
                 return AlignStep()
+            self.sign = math.copysign(1.0, remaining)
             go = math.copysign(min(abs(remaining), max(free, 0.0)), remaining)
-            v = _profile(go, p.max_speed, p.min_speed, p.accel)
+            ahead = go - speed[0] * p.lead  # the measured speed carries the robot on before a command acts
+            v = _profile(ahead, p.max_speed, p.min_speed, p.accel) if ahead * go > 0 else 0.0
             w = max(-p.max_turn, min(p.max_turn, 1.5 * error))
             return AlignStep(v=v, w=w)
         raise AssertionError(f"unknown phase {self.phase}")

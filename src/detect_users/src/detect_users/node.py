@@ -52,7 +52,10 @@ PARAMS = ParamTable(
     Param("steps", int, _D.steps, "45 degree turns of a search (8: a full turn)", ge=1, le=16),
     Param("look_first", bool, _D.look_first, "look at the arrival heading before the first turn"),
     Param("settle_time", float, _D.settle_time, "after Start, before looking", unit="s", ge=0),
-    Param("look_time", float, _D.look_time, "longest look at one heading", unit="s", gt=0),
+    Param("look_time", float, _D.look_time, "a look at one heading lasts this long ...", unit="s", gt=0),
+    Param("look_frames", int, _D.look_frames, "... and until the tracker published this many messages since it "
+          "looked", ge=0),
+    Param("look_timeout", float, _D.look_timeout, "... but no longer (a tracker short of CPU)", unit="s", gt=0),
     Param("max_range", float, _D.max_range, "a person farther from the robot is not in range", unit="m", gt=0),
     Param("max_speed", float, _D.max_speed, "fastest turn", unit="rad/s", gt=0),
     Param("min_speed", float, _D.min_speed, "slowest turn command", unit="rad/s", ge=0),
@@ -74,8 +77,9 @@ class DetectUsersNode:
         self.p = p = read_params(PARAMS)
         if p.min_speed > p.max_speed:
             raise ValueError(f"~min_speed ({p.min_speed}) must not exceed ~max_speed ({p.max_speed})")
-        self.search_params = SearchParams(p.steps, p.look_first, p.settle_time, p.look_time, p.max_range,
-                                          p.max_speed, p.min_speed, p.decel, p.tolerance, 0.05, p.turn_timeout)
+        self.search_params = SearchParams(p.steps, p.look_first, p.settle_time, p.look_time, p.look_frames,
+                                          p.look_timeout, p.max_range, p.max_speed, p.min_speed, p.decel,
+                                          p.tolerance, turn_timeout=p.turn_timeout)
         self.lock = threading.Lock()
         self.odom = None  # (t [s], yaw [rad], yaw rate [rad/s])
         self.people = []  # (stamp [s], [Person]) of the tracker messages not yet looked at
@@ -120,14 +124,20 @@ class DetectUsersNode:
     def _on_users(self, msg):
         with self.lock:
             looking = self.search is not None
-        if not looking or not msg.user_ids:
+        if not looking:
+            return
+        if not msg.user_ids:
+            with self.lock:
+                self.people.append((msg.stamp.to_sec(), []))  # a look without anybody counts too
             return
         if len(msg.positions) != len(msg.user_ids) or not msg.frame_id:
             rospy.logwarn_throttle(5.0, LOG + "filtered_tracked_users without positions or frame_id: cannot place "
                                    "the users")
             return
-        to_map, why = lookup_matrix(self.tf_buffer, self.p.map_frame, msg.frame_id, msg.stamp, 0.2)
-        robot, why2 = lookup_matrix(self.tf_buffer, msg.frame_id, self.p.base_frame, msg.stamp, 0.2)
+        # the latest transforms: people count only while the robot stands still, and map -> odom (amcl)
+        # changes slowly; a lookup at the message's stamp fails whenever amcl's transform is late
+        to_map, why = lookup_matrix(self.tf_buffer, self.p.map_frame, msg.frame_id, rospy.Time(0), 0.0)
+        robot, why2 = lookup_matrix(self.tf_buffer, msg.frame_id, self.p.base_frame, rospy.Time(0), 0.0)
         if to_map is None or robot is None:
             rospy.logwarn_throttle(5.0, LOG + "users skipped: %s", why or why2)
             return
@@ -211,8 +221,10 @@ class DetectUsersNode:
             if odom is None or now - odom[0] > p.odom_timeout:
                 self._finish(ABORTED, f"odometry silent for {p.odom_timeout:.1f} s: turn stopped")
                 return
-            seen = [person for stamp, people in batches if stamp >= self.tracker_started_at for person in people]
-            step = search.update(now, odom[1], odom[2], seen if search.phase == "look" else [])
+            fresh = [people for stamp, people in batches if stamp >= self.tracker_started_at]
+            seen = [person for people in fresh for person in people]
+            looking = search.phase == "look"
+            step = search.update(now, odom[1], odom[2], seen if looking else [], len(fresh) if looking else 0)
             if step.call:
                 ok, why = self._call(step.call)
                 search.called(step.call, ok, why, rospy.get_time())
@@ -222,10 +234,11 @@ class DetectUsersNode:
                 self.detected_pub.publish(DetectedUser(command=True, user_position_x=person.x,
                                                        user_position_y=person.y))
                 self._finish(FOUND, f"user {person.user_id} at ({person.x:.2f}, {person.y:.2f}), "
-                             f"{person.distance:.1f} m away, after {search.looks + 1} looks")
+                             f"{person.distance:.1f} m away, after {search.looks + 1} looks"
+                             + "".join(f"; {line}" for line in search.log if "published" in line))
                 return
             if step.outcome == ABORTED:
-                self._finish(ABORTED, step.why)
+                self._finish(ABORTED, step.why + "".join(f"; {line}" for line in search.log if "published" in line))
                 return
             cmd = Twist()
             cmd.angular.z = step.w

@@ -8,7 +8,10 @@ in 45 degree steps and looks only while it stands still, the tracker restarted a
     step k = 1..8: Stop, turn to start + k * 45 deg, Start, settle, look
 
 Headings are absolute (start yaw + k * 45 deg on odometry), so errors of one step do not add up;
-after step 8 the robot faces where it started: a full turn. A look ends the search as soon as a
+after step 8 the robot faces where it started: a full turn. The turns go counter-clockwise; a
+turn that ends past its target by up to ``overshoot`` is not turned back (a base that answers late
+would overshoot back and forth: in florence_sim on a loaded machine, 670 degrees of turning for a
+360 degree search). A look ends the search as soon as a
 person is in range; eight looks without one end it ABORTED.
 
 :class:`Search` is stepped by the node at its control rate with the odometry's yaw and yaw rate
@@ -31,12 +34,16 @@ class SearchParams:
     steps: int = 8  # turns of STEP_ANGLE: 8 make a full turn
     look_first: bool = True  # look at the arrival heading before the first turn
     settle_time: float = 0.5  # [s] after Start, before looking (the robot at rest, the tracker confirming)
-    look_time: float = 1.5  # [s] longest look at one heading
+    look_time: float = 1.0  # [s] a look lasts this long (the tracker reports a person in view within 0.3 s) ...
+    look_frames: int = 10  # ... and until the tracker has published this many messages since it looked
+    look_timeout: float = 6.0  # [s] ... but no longer (a tracker starved of CPU publishes late)
     max_range: float = 4.0  # [m] a person farther from the robot is not "in range"
-    max_speed: float = 0.8  # [rad/s] fastest turn
+    max_speed: float = 0.6  # [rad/s] fastest turn
     min_speed: float = 0.2  # [rad/s] slowest turn command (the base's static friction)
-    decel: float = 0.8  # [rad/s^2] braking of the turn profile (below velocity_filter's 1.0)
+    decel: float = 0.6  # [rad/s^2] braking of the turn profile (below velocity_filter's 1.0)
     tolerance: float = 0.03  # [rad] a heading this near the target is reached
+    overshoot: float = 0.2  # [rad] past the target by at most this, the step is done (no turning back)
+    lead: float = 0.3  # [s] the braking looks this far ahead at the measured turn rate (late commands)
     still_rate: float = 0.05  # [rad/s] the robot is at rest below this yaw rate
     turn_timeout: float = 10.0  # [s] longest single turn (a blocked base)
 
@@ -89,6 +96,7 @@ class Search:
     since: float = 0.0  # [s] when the phase began
     waiting: bool = False  # a tracker call is out
     looks: int = 0
+    frames: int = 0  # tracker messages of the look under way
     outcome: Step | None = None  # the ending, once phase is "done"
     log: list = field(default_factory=list)
 
@@ -116,9 +124,10 @@ class Search:
         elif self.phase == "start_tracker":
             self._enter("settle", now)
 
-    def update(self, now, yaw, yaw_rate, people):
+    def update(self, now, yaw, yaw_rate, people, frames=0):
         """One control cycle: odometry yaw [rad] and yaw rate [rad/s] now, the people seen since
-        the last cycle (Person list; only counted while looking)."""
+        the last cycle (Person list; only counted while looking) and how many tracker messages
+        (``frames``, with people or without) came since the last cycle."""
         if self.phase == "done":
             return self.outcome
         if self.phase in ("stop_tracker", "start_tracker"):
@@ -133,14 +142,21 @@ class Search:
                 self._enter("look", now)
             return Step()
         if self.phase == "look":
+            self.frames += frames
             return self._look(now, people)
         raise AssertionError(f"unknown phase {self.phase}")
 
     def _turn(self, now, yaw, yaw_rate):
         p = self.params
         remaining = angles.diff(self.target, yaw)
-        w = turn_rate(remaining, p)
-        if w == 0.0 and abs(yaw_rate) < p.still_rate:
+        ahead = remaining - yaw_rate * p.lead  # where the heading will be when a command now takes effect
+        w = turn_rate(ahead, p) if ahead * remaining > 0 else 0.0
+        if -p.overshoot <= remaining < 0.0:
+            # past the target (the base answers late under load): turning back would only overshoot
+            # the other way; 45 degree steps under a 57 degree view leave room for it, and the next
+            # step's target is absolute, so the error does not add up
+            w = 0.0
+        if abs(remaining) <= max(p.tolerance, p.overshoot if remaining < 0 else 0.0) and abs(yaw_rate) < p.still_rate:
             self.log.append(f"step {self.step}: at {math.degrees(yaw):.0f} deg")
             self._enter("start_tracker", now)
             return Step()
@@ -154,8 +170,13 @@ class Search:
         person = pick(people, p.max_range)
         if person is not None:
             return self._end(FOUND, now, person=person)
-        if now - self.since >= p.look_time:
+        looked = now - self.since >= p.look_time and self.frames >= p.look_frames
+        if looked or now - self.since >= p.look_timeout:
+            if not looked:
+                self.log.append(f"step {self.step}: the tracker published {self.frames} messages in "
+                                f"{p.look_timeout:.0f} s")
             self.looks += 1
+            self.frames = 0
             if self.step >= p.steps:
                 return self._end(ABORTED, now, why=f"nobody within {p.max_range:.1f} m in {self.looks} looks "
                                  f"over a full turn")
