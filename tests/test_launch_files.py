@@ -22,9 +22,6 @@ PENDING = {
     ("openni_camera", "openni_camera_node"): "not scheduled yet (real Kinect driver)",
     ("kinect_aux", "kinect_aux_node"): "not scheduled yet (real Kinect tilt driver)",
     ("turtlebot_calibration", "calibrate.py"): "not scheduled yet",
-    ("florence_locator", "florence_locator_node"): "not scheduled yet",
-    ("detect_users", "detect_users_node"): "not scheduled yet",
-    ("approach_me_map", "approach_me_map_node"): "not scheduled yet",
     ("follow_me", "follow_me_node"): "not scheduled yet",
     ("approach_me", "approach_me_node"): "not scheduled yet",
 }

@@ -73,10 +73,10 @@ def test_nobody_in_a_full_turn_aborts_facing_the_start():
     assert step.outcome == ABORTED and "full turn" in step.why and "9 looks" in step.why
     assert base.turned == pytest.approx(2 * math.pi, abs=math.radians(6))
     assert abs(angles.diff(base.yaw, 0.3)) < math.radians(3)
-    # Stop before every turn, Start after it: 8 turns + the first look
-    assert [c[1] for c in calls] == ["stop_tracker", "start_tracker"] * 9
+    # Stop before every turn, Start after it (the first look keeps the tracks the tracker holds)
+    assert [c[1] for c in calls] == ["stop_tracker", "start_tracker"] * 8
     headings = [c[2] for c in calls if c[1] == "start_tracker"]
-    assert headings == pytest.approx([round(math.degrees(angles.wrap(0.3 + k * STEP_ANGLE))) for k in range(9)],
+    assert headings == pytest.approx([round(math.degrees(angles.wrap(0.3 + k * STEP_ANGLE))) for k in range(1, 9)],
                                      abs=3)
     assert search.tracker_stopped is False
 
@@ -88,7 +88,7 @@ def test_a_late_base_is_not_turned_back_and_forth():
     _search, step, _t, calls = run(SearchParams(), base)
     assert step.outcome == ABORTED
     assert math.degrees(base.turned) == pytest.approx(360, abs=25)
-    headings = [c[2] for c in calls if c[1] == "start_tracker"][1:]
+    headings = [c[2] for c in calls if c[1] == "start_tracker"]
     errors = [abs(math.degrees(angles.diff(math.radians(h), (k + 1) * STEP_ANGLE))) for k, h in enumerate(headings)]
     assert max(errors) < 15, errors
 
@@ -102,6 +102,12 @@ def test_a_person_is_found_at_the_first_heading_that_sees_them(bearing_deg, look
     assert abs(angles.diff(base.yaw, math.radians(bearing_deg))) < math.radians(28.5)
 
 
+def test_the_seeds_restart_before_the_first_look():
+    _search, step, _t, calls = run(SearchParams(reset_first=True), Base())
+    assert step.outcome == ABORTED and [c[1] for c in calls] == ["stop_tracker", "start_tracker"] * 9
+    assert calls[1][2] == 0  # started again before looking at the arrival heading
+
+
 def test_without_look_first_the_first_turn_comes_first():
     base = Base()
     _search, step, _t, calls = run(SearchParams(look_first=False), base)
@@ -112,7 +118,7 @@ def test_without_look_first_the_first_turn_comes_first():
 
 def test_nothing_seen_while_turning_or_settling_counts():
     """The tracker reports a person all the time, but the search only looks while standing after Start."""
-    p = SearchParams(settle_time=0.5)
+    p = SearchParams(settle_time=0.5, reset_first=True)
     search = Search(p, 0.0, 0.0)
     ghost = [Person(1.0, 0.0, 1.0)]
     assert search.update(0.0, 0.0, 0.0, ghost).call == "stop_tracker"

@@ -152,6 +152,18 @@ def test_a_failed_drive_that_still_ends_in_the_room_searches(loc):
     assert after == [] and loc.status()[0] == ABORTED and "could not reach living_room" in loc.status()[1]
 
 
+def test_somebody_seen_in_the_users_room_on_the_way_ends_the_drive(loc):
+    commands = run_to_search(loc)  # driving from the kitchen to the living room
+    aid = commands[0].activity
+    assert loc.sighted(6.0, 3.0, 5.0) == []  # somebody in the kitchen: drive on
+    assert loc.activity.phase == NAVIGATE
+    after = loc.sighted(4.0, 2.0, 6.0)  # somebody in the living room
+    assert names(after) == [("cancel_goal",), ("search", True)] and loc.activity.phase == SEARCH
+    assert "on the way" in loc.status()[1]
+    assert loc.goal_done(aid, PREEMPTED, "cancelled", None, 6.5) == []  # the cancelled drive's end: ignored
+    assert loc.sighted(4.0, 2.5, 7.0) == [] and loc.activity.phase == SEARCH
+
+
 def test_nobody_found_aborts(loc):
     commands = run_to_search(loc, robot=Pose(3.0, 4.0, 0.0))
     assert commands

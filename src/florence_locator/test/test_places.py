@@ -5,7 +5,17 @@ import math
 
 import numpy as np
 import pytest
-from florence_locator.places import UNKNOWN, FloorMap, Hotspots, Pose, Rooms, check_label, check_pose, contains
+from florence_locator.places import (
+    UNKNOWN,
+    FloorMap,
+    Hotspots,
+    Pose,
+    Rooms,
+    check_label,
+    check_pose,
+    contains,
+    contains_points,
+)
 
 from florence_common.maps import map_file
 from florence_common.yamlfile import YamlError
@@ -54,6 +64,15 @@ def test_concave_room(x, y, inside):
 ])
 def test_apartment_room_lookup(apartment, x, y, room):
     assert apartment.room_at(x, y) == room
+
+
+def test_many_points_at_once_agree_with_one_at_a_time(apartment):
+    rng = np.random.default_rng(2)
+    pts = np.vstack([rng.uniform([-0.5, -0.5], [8.5, 10.5], size=(400, 2)),
+                     [[5.0, 2.0], [3.0, 5.5], [5.5, 6.8], [0.0, 0.0], [8.0, 10.0], [math.nan, 1.0]]])
+    assert list(apartment.rooms_at(pts)) == [apartment.room_at(x, y) for x, y in pts]
+    for x, y in rng.uniform(-0.2, 2.2, size=(200, 2)):
+        assert contains_points(L_SHAPE, [[x, y]])[0] == contains(L_SHAPE, x, y)
 
 
 def test_rooms_file_beside_the_map_and_the_locator_config_agree(apartment):

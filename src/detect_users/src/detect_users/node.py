@@ -50,7 +50,9 @@ LOG = "detect_users: "
 _D = SearchParams()
 PARAMS = ParamTable(
     Param("steps", int, _D.steps, "45 degree turns of a search (8: a full turn)", ge=1, le=16),
-    Param("look_first", bool, _D.look_first, "look at the arrival heading before the first turn"),
+    Param("look_first", bool, _D.look_first, "look at the arrival heading before the first turn ..."),
+    Param("reset_first", bool, _D.reset_first, "... with the tracker restarted (Stop, Start) first; false: the "
+          "tracks it holds from the way in count (a person too near for the Kinect, whom the laser tracks)"),
     Param("settle_time", float, _D.settle_time, "after Start, before looking", unit="s", ge=0),
     Param("look_time", float, _D.look_time, "a look at one heading lasts this long ...", unit="s", gt=0),
     Param("look_frames", int, _D.look_frames, "... and until the tracker published this many messages since it "
@@ -77,7 +79,8 @@ class DetectUsersNode:
         self.p = p = read_params(PARAMS)
         if p.min_speed > p.max_speed:
             raise ValueError(f"~min_speed ({p.min_speed}) must not exceed ~max_speed ({p.max_speed})")
-        self.search_params = SearchParams(p.steps, p.look_first, p.settle_time, p.look_time, p.look_frames,
+        self.search_params = SearchParams(p.steps, p.look_first, p.reset_first, p.settle_time, p.look_time,
+                                          p.look_frames,
                                           p.look_timeout, p.max_range, p.max_speed, p.min_speed, p.decel,
                                           p.tolerance, turn_timeout=p.turn_timeout)
         self.lock = threading.Lock()
@@ -203,6 +206,7 @@ class DetectUsersNode:
             self._finish(ABORTED, "no odometry (odom): cannot turn")
             return
         search = Search(self.search_params, odom[1], now)
+        self.tracker_started_at = now if search.phase == "settle" else math.inf  # what counts of the tracker's output
         with self.lock:
             self.search, self.people = search, []
         rospy.loginfo(LOG + "searching from %.0f deg", math.degrees(odom[1]))

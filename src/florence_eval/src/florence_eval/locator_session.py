@@ -22,6 +22,7 @@ import rospy
 from nav_msgs.msg import Odometry
 from std_msgs.msg import Bool, UInt32
 
+from detect_users.msg import DetectedUser
 from florence_common.maps import map_file
 from florence_common.processes import roslaunch, wait_for
 from florence_common_ros.convert import to_xyyaw
@@ -50,24 +51,38 @@ def launch_stack(master, start, real_time_factor=2.0, seed=1, people=None, hotsp
     procs = []
 
     def started(proc, node):
-        procs.append(proc)
         wait_for(lambda: not proc.running() or _registered(graph, node), 180, what=f"{node} to start")
         if not proc.running():
             raise RuntimeError(f"{proc.name} exited:\n{proc.output(3000)}")
 
     try:
-        started(roslaunch(master, "turtlebot_control", "turtlebot_2dnav_control.launch", "sim:=true",
-                          f"people:={people}", f"real_time_factor:={real_time_factor}", f"seed:={seed}",
-                          f"x:={x}", f"y:={y}", f"yaw:={yaw}"), "/move_base")
-        started(roslaunch(master, "user_tracker_ni", "user_tracker.launch"), "/user_tracker_ni_node")
-        started(roslaunch(master, "florence_locator", "florence_locator.launch", f"rooms_file:={ROOMS}",
-                          f"hotspots_file:={hotspots}"), "/approach_me_map_node")
+        procs.append(roslaunch(master, "turtlebot_control", "turtlebot_2dnav_control.launch", "sim:=true",
+                               f"people:={people}", f"real_time_factor:={real_time_factor}", f"seed:={seed}",
+                               f"x:={x}", f"y:={y}", f"yaw:={yaw}"))
+        # the first roslaunch sets /run_id; the others, started once it is there, do not race for it
+        wait_for(lambda: graph.hasParam("/run_id"), 60, what="roslaunch's /run_id")
+        procs.append(roslaunch(master, "user_tracker_ni", "user_tracker.launch"))
+        procs.append(roslaunch(master, "florence_locator", "florence_locator.launch", f"rooms_file:={ROOMS}",
+                               f"hotspots_file:={hotspots}"))
+        for proc, node in zip(procs, ("/move_base", "/user_tracker_ni_node", "/approach_me_map_node"), strict=True):
+            started(proc, node)
     except Exception:
         for proc in reversed(procs):
             print(f"----- {proc.name} -----\n{proc.output(3000)}")
             proc.stop()
         raise
     return procs
+
+
+def stop_stack(procs):
+    """Stop the processes of :func:`launch_stack` at once (each roslaunch takes seconds to stop its nodes)."""
+    import threading
+
+    threads = [threading.Thread(target=proc.stop) for proc in procs]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
 
 
 class LocatorSession(PeopleSession):
@@ -82,7 +97,9 @@ class LocatorSession(PeopleSession):
         self.collisions = 0
         self.override = rospy.Publisher("/florenceLocator/manualOverride", Bool, queue_size=1, latch=True)
         self._proxies = {}
+        self.detections = []  # simulated times of detect_users' /detected_user (command true)
         self.subs += [
+            rospy.Subscriber("/detected_user", DetectedUser, self._on_detected, queue_size=5),
             rospy.Subscriber("/base_pose_ground_truth", Odometry, self._on_motion, queue_size=100),
             rospy.Subscriber("/people_ground_truth", People, self._on_people_states, queue_size=20),
             rospy.Subscriber("/collisions", UInt32, self._on_collisions, queue_size=5),
@@ -99,6 +116,16 @@ class LocatorSession(PeopleSession):
         states = {p.id: (*to_xyyaw(p.pose), p.posture) for p in msg.people}
         with self.lock:
             self.poses.append((msg.header.stamp.to_sec(), states))
+
+    def _on_detected(self, msg):
+        if msg.command:
+            with self.lock:
+                self.detections.append(self.motion[-1][0] if self.motion else 0.0)
+
+    def detected_since(self, since):
+        """Simulated time of the first detection at or after ``since``, or None."""
+        with self.lock:
+            return next((t for t in self.detections if t >= since), None)
 
     def _on_collisions(self, msg):
         with self.lock:
@@ -165,6 +192,20 @@ class LocatorSession(PeopleSession):
         wait_for(lambda: self.sim_now() > 2.0, timeout, what="florence_sim's clock")
         rospy.wait_for_service("/florenceLocator/gotoUser", timeout)
         wait_for(lambda: self.call("getRobotPosRoom").success, timeout, what="the locator to see the robot (amcl)")
+
+    def place_robot(self, pose, tolerance=0.3, attempts=3):
+        """Carry the robot to ``pose`` (x, y, yaw) and tell amcl, until the locator's getRobotPosXYPhi
+        agrees within ``tolerance`` [m] (amcl takes an initial pose with its next scan update)."""
+        for _ in range(attempts):
+            self.set_robot(*pose)
+            try:
+                wait_for(lambda: (r := self.call("getRobotPosXYPhi")).success
+                         and math.hypot(r.x - pose[0], r.y - pose[1]) < tolerance, 20.0,
+                         what="amcl to take the robot's new pose")
+                return
+            except Exception:  # noqa: BLE001 - tell it again
+                continue
+        raise RuntimeError(f"amcl did not take the pose {pose} in {attempts} attempts")
 
     def set_override(self, on):
         self.override.publish(Bool(on))

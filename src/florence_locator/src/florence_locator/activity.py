@@ -249,6 +249,19 @@ class Locator:
         return self._end(a, ABORTED, f"could not reach {a.room} to search for the user: move_base {state}: {text}",
                          cancel_goal=False)
 
+    def sighted(self, x, y, now):
+        """The tracker reports somebody at (x, y) [m, map] near the robot. While gotoUser drives to the
+        user's room and the person is in that room, the drive ends here and the search begins: the
+        search's first look finds the person the tracker holds, and the robot neither drives up to
+        someone standing by the hotspot nor ends too near them for the Kinect to see."""
+        a = self.activity
+        if (a is None or a.kind != GOTO_USER or a.state not in RUNNING or a.phase != NAVIGATE
+                or self.rooms.room_at(x, y) != a.room):
+            return []
+        a.notes.append(f"saw somebody at ({x:.2f}, {y:.2f}) in {a.room} on the way: searching from there")
+        return [Command("cancel_goal", (), a.id), *self._phase(a, SEARCH, now, f"searching for the user in {a.room} "
+                                                               "(detect_users)")]
+
     def phase_status(self, status, now):
         """A message on /approach_user/status (detect_users' or approach_me_map's)."""
         a = self.activity

@@ -19,6 +19,8 @@ ROS Subscribers:
         the search, the approach) and refuses go-to calls until false.
     approach_user/status (std_msgs/String): detect_users' and approach_me_map's state.
     detected_user (detect_users/DetectedUser): where detect_users found the user (map frame).
+    filtered_tracked_users (user_tracker_ni/TrackedUsers): people seen while gotoUser drives to the
+        user's room (one there, within ~sighting_range, ends the drive and starts the search).
     map (nav_msgs/OccupancyGrid): the robot's map, to refuse hotspots and goals in walls or off it.
     move_base/goal (move_base_msgs/MoveBaseActionGoal): every client's goals (getGoalPos*).
 
@@ -58,6 +60,7 @@ from florence_common_ros.transforms import lookup_matrix
 from florence_locator import srv
 from florence_locator.activity import RUNNING, Locator, Timeouts
 from florence_locator.places import UNKNOWN, FloorMap, Hotspots, Rooms, check_label, check_pose
+from user_tracker_ni.msg import TrackedUsers
 
 LOG = "florence_locator: "
 PARAMS = ParamTable(
@@ -76,6 +79,8 @@ PARAMS = ParamTable(
     Param("approach_timeout", float, 240.0, "gotoUser: longest approach", unit="s", gt=0),
     Param("tracker_service", str, "/user_tracker_ni_node/Stop", "gotoUser is refused while no node serves this "
           "('' = no check)"),
+    Param("sighting_range", float, 3.0, "gotoUser: a tracked person this near the robot in the user's room, seen "
+          "on the way there, ends the drive and starts the search (0 = off)", unit="m", ge=0),
 )
 
 
@@ -115,6 +120,7 @@ class FlorenceLocatorNode:
         rospy.Subscriber("detected_user", DetectedUser, self._on_detected, queue_size=5)
         rospy.Subscriber("map", OccupancyGrid, self._on_map, queue_size=1)
         rospy.Subscriber("move_base/goal", MoveBaseActionGoal, self._on_any_goal, queue_size=5)
+        rospy.Subscriber("filtered_tracked_users", TrackedUsers, self._on_users, queue_size=2)
 
         handlers = (
             ("getUserPosRoom", "GetUserPosRoom", self.get_user_pos_room),
@@ -225,6 +231,24 @@ class FlorenceLocatorNode:
             return
         with self.lock:
             self._execute(self.core.detected(msg.user_position_x, msg.user_position_y, self.now()))
+
+    def _on_users(self, msg):
+        """People the tracker reports while gotoUser drives to the user's room (activity.Locator.sighted)."""
+        with self.lock:
+            a = self.core.activity
+            driving = a is not None and a.kind == "gotoUser" and a.state in RUNNING and a.phase == "navigate"
+        if not driving or self.p.sighting_range <= 0 or not msg.user_ids or len(msg.positions) != len(msg.user_ids):
+            return
+        to_map, _why = lookup_matrix(self.tf_buffer, self.p.map_frame, msg.frame_id, rospy.Time(0), 0.0)
+        robot, _why2 = self.robot_pose()
+        if to_map is None or robot is None:
+            return
+        for q in msg.positions:
+            x, y = (to_map @ np.array([q.x, q.y, 0.0, 1.0]))[:2]
+            if math.isfinite(x) and math.isfinite(y) and math.hypot(x - robot.x, y - robot.y) <= self.p.sighting_range:
+                with self.lock:
+                    self._execute(self.core.sighted(float(x), float(y), self.now()))
+                return
 
     def _on_map(self, msg):
         info = msg.info

@@ -104,6 +104,26 @@ def contains(polygon, x, y):
     return inside
 
 
+def contains_points(polygon, points):
+    """:func:`contains` for many points: bool [N] for points [N, 2] (numpy, edge by edge)."""
+    pts = np.asarray(points, dtype=float).reshape(-1, 2)
+    poly = np.asarray(polygon, dtype=float)
+    x, y = pts[:, 0], pts[:, 1]
+    inside = np.zeros(len(pts), dtype=bool)
+    on_edge = np.zeros(len(pts), dtype=bool)
+    for (ax, ay), (bx, by) in zip(poly, np.roll(poly, -1, axis=0), strict=True):
+        cross = (bx - ax) * (y - ay) - (by - ay) * (x - ax)
+        length = max(math.hypot(bx - ax, by - ay), 1e-12)
+        on_edge |= ((np.abs(cross) <= EDGE_TOLERANCE * length)
+                    & (x >= min(ax, bx) - EDGE_TOLERANCE) & (x <= max(ax, bx) + EDGE_TOLERANCE)
+                    & (y >= min(ay, by) - EDGE_TOLERANCE) & (y <= max(ay, by) + EDGE_TOLERANCE))
+        if ay != by:
+            straddles = (ay > y) != (by > y)
+            cross_x = ax + (y - ay) * (bx - ax) / (by - ay)
+            inside ^= straddles & (x < cross_x)
+    return inside | on_edge
+
+
 class Rooms:
     """Labelled polygons, in the file's order (which decides shared edges)."""
 
@@ -146,6 +166,17 @@ class Rooms:
 
     def labels(self):
         return list(self.polygons)
+
+    def rooms_at(self, points):
+        """Labels (object array [N]) of the rooms holding points [N, 2], as :meth:`room_at` would."""
+        pts = np.asarray(points, dtype=float).reshape(-1, 2)
+        out = np.full(len(pts), UNKNOWN, dtype=object)
+        todo = np.all(np.isfinite(pts), axis=1)
+        for label, polygon in self.polygons.items():
+            hit = todo & contains_points(polygon, pts)
+            out[hit] = label
+            todo &= ~hit
+        return out
 
     def room_at(self, x, y):
         """Label of the room holding (x [m], y [m]), the first in file order on a shared edge;
