@@ -59,14 +59,25 @@ def dump(procs):
     return "\n".join(f"\n----- {p.name} (tail) -----\n{p.output(5000)}" for p in procs[-2:])
 
 
-def judge_approach(session, t0, pid="alice"):
-    """(Approach at the end, nearest distance to anybody since t0) from ground truth."""
+def goto_user_and_judge(session, procs, room):
+    """gotoUser, which must end SUCCEEDED beside alice in ``room``: 0.5 +/- 0.15 m from her, facing her
+    within 20 deg, without a collision (ground truth). Returns (Approach, nearest person, detail)."""
     from florence_eval import locator_metrics
 
+    t0 = session.sim_now()
+    res, done, took = session.goto_user()
+    assert res.success, res.message
+    assert done.status == "SUCCEEDED", f"{done.message} after {took:.0f} s{dump(procs)}"
     session.wait_sim(0.5)  # the robot at rest, its pose recorded
-    result = locator_metrics.approach(session.robot(), session.person(pid))
+    result = locator_metrics.approach(session.robot(), session.person("alice"))
     nearest = locator_metrics.nearest_person(session.track(t0), session.people_log(t0))
-    return result, nearest
+    detail = f"{result.as_dict()}, nearest {nearest}, {took:.0f} s: {done.message}"
+    print(f"gotoUser in {room}: {detail}")
+    assert session.call("getRobotPosRoom").room == room, detail
+    assert abs(result.distance - DISTANCE) <= DISTANCE_TOL, detail
+    assert abs(result.facing_error) <= FACING_TOL, detail
+    assert session.collisions == 0, detail
+    return result, nearest, detail
 
 
 def test_goto_room_reaches_every_room_and_get_robot_pos_room_agrees(stack):
@@ -88,22 +99,15 @@ def test_goto_room_reaches_every_room_and_get_robot_pos_room_agrees(stack):
         goal = session.call("getGoalPosRoom")
         assert goal.room == room
     assert session.collisions == 0, legs
+    print(f"gotoRoom legs (room, state, error m, sim s): {legs}")
 
 
 def test_goto_user_sitting_in_the_living_room_from_the_kitchen(stack):
     session, procs = stack
     assert session.call("getRobotPosRoom").room == "kitchen"
     assert session.call("setUserPosRoom", "living_room").success  # a home sensor: the user is there
-    t0 = session.sim_now()
-    res, done, took = session.goto_user()
-    assert res.success, res.message
-    assert done.status == "SUCCEEDED", f"{done.message} after {took:.0f} s{dump(procs)}"
-    result, nearest = judge_approach(session, t0)
-    detail = f"{result.as_dict()}, nearest {nearest}, {took:.0f} s: {done.message}"
-    assert abs(result.distance - DISTANCE) <= DISTANCE_TOL, detail
-    assert abs(result.facing_error) <= FACING_TOL, detail
-    assert result.side_name != "behind", detail
-    assert session.collisions == 0, detail
+    result, _nearest, detail = goto_user_and_judge(session, procs, "living_room")
+    assert result.side_name != "behind", detail  # she faces the way the robot comes from
     user = session.call("getUserPosXYPhi")  # updated from what detect_users saw
     alice = session.person("alice")
     assert math.hypot(user.x - alice[0], user.y - alice[1]) < 0.3, (user, alice)
@@ -117,16 +121,7 @@ def test_set_user_pos_room_from_a_home_sensor_then_goto_user_finds_the_user_ther
     assert session.call("getUserPosRoom").room == "bedroom"
     again = session.call("setUserPosRoom", "bedroom")  # already there: the finer position is kept
     assert again.success and "already" in again.message
-    t0 = session.sim_now()
-    res, done, took = session.goto_user()
-    assert res.success, res.message
-    assert done.status == "SUCCEEDED", f"{done.message} after {took:.0f} s{dump(procs)}"
-    result, nearest = judge_approach(session, t0)
-    detail = f"{result.as_dict()}, nearest {nearest}, {took:.0f} s: {done.message}"
-    assert session.call("getRobotPosRoom").room == "bedroom", detail
-    assert abs(result.distance - DISTANCE) <= DISTANCE_TOL, detail
-    assert abs(result.facing_error) <= FACING_TOL, detail
-    assert session.collisions == 0, detail
+    goto_user_and_judge(session, procs, "bedroom")
 
 
 def test_user_absent_aborts_after_a_full_turn(stack):
@@ -145,6 +140,7 @@ def test_user_absent_aborts_after_a_full_turn(stack):
     assert math.radians(330) <= net <= math.radians(400), detail  # a full turn, counter-clockwise
     assert total <= net + math.radians(60), detail  # without turning back and forth
     assert took < 60.0, f"the search took {took:.0f} s"
+    print(f"user absent: {detail}, ABORTED after {took:.1f} simulated s")
 
 
 def test_manual_override_stops_the_robot_within_a_second_and_teleop_drives_it(stack):
@@ -164,6 +160,7 @@ def test_manual_override_stops_the_robot_within_a_second_and_teleop_drives_it(st
     stopped = locator_metrics.time_to_stop(track, t_override)
     speeds = [(round(r[0] - t_override, 2), round(r[4], 2), round(r[5], 2)) for r in track[::5]]
     assert stopped is not None and stopped <= 1.0, f"stopped after {stopped} s: (t, v, w) {speeds}{dump(procs)}"
+    print(f"manual override: at rest {stopped:.2f} simulated s after it, from v = {track[0, 4]:.2f} m/s")
     res = session.call("gotoRoom", "bedroom")
     assert not res.success and "manual override" in res.message
     # the person at the keyboard drives: teleop's input of the multiplexer

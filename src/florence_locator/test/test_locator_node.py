@@ -426,15 +426,22 @@ def test_without_move_base_go_to_calls_are_refused(system, ros_master):
 
 @pytest.mark.parametrize("which, text, line", [("hotspots", "hotspots:\n  kitchen: {x: 1, y: oops, phi: 0}\n", 2),
                                                ("rooms", "rooms:\n  hall: [[0, 0], [1, 0]]\n", 2)])
-def test_a_corrupt_file_stops_the_node_naming_file_and_line(system, ros_master, tmp_path, which, text, line):
+def test_a_corrupt_file_stops_the_node_naming_file_and_line(system, rospy_node, tmp_path, which, text, line):
+    """The node's constructor refuses the file with its name and line (a ValueError: run() logs it fatal and
+    exits 1, florence_common_ros's test_node_run), before it makes any publisher or service."""
+    from florence_locator.node import FlorenceLocatorNode
+
+    from florence_common.yamlfile import YamlError
+
     bad = tmp_path / f"{which}.yaml"
     bad.write_text(text)
     files = {"rooms": map_file("apartment", "rooms.yaml"), "hotspots": system["hotspots"], which: bad}
-    proc = rosrun(ros_master, "florence_locator", "florence_locator_node", "__ns:=/loc_test_broken",
-                  f"_rooms_file:={files['rooms']}", f"_hotspots_file:={files['hotspots']}")
+    rospy_node.set_param("~rooms_file", str(files["rooms"]))
+    rospy_node.set_param("~hotspots_file", str(files["hotspots"]))
     try:
-        wait_for(lambda: not proc.running(), 30, what="the node to exit")
-        assert proc.proc.returncode == 1
-        assert f"{bad}:{line}:" in proc.output(), proc.output()
+        with pytest.raises(YamlError) as info:
+            FlorenceLocatorNode()
+        assert str(info.value).startswith(f"{bad}:{line}: ")
     finally:
-        proc.stop()
+        for name in ("~rooms_file", "~hotspots_file"):
+            rospy_node.delete_param(name)
