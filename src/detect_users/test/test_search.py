@@ -154,10 +154,11 @@ def test_a_blocked_turn_aborts():
 
 @pytest.mark.parametrize("people, expected", [
     ([], None),
+    ([Person(1, 1, 1.0, 1, clearance=0.1), Person(2, 2, 2.0, 2, clearance=0.4)], 2),  # a ghost at a wall
     ([Person(1, 1, 5.0)], None),  # out of range
     ([Person(1, 1, 3.0, 1), Person(2, 2, 1.5, 2)], 2),  # the nearest
     ([Person(math.nan, 1, 1.0, 1), Person(2, 2, 3.5, 2)], 2),  # NaN skipped
 ])
 def test_pick(people, expected):
-    chosen = pick(people, 4.0)
+    chosen = pick(people, 4.0, 0.15)
     assert (chosen.user_id if chosen else None) == expected

@@ -164,6 +164,19 @@ def test_somebody_seen_in_the_users_room_on_the_way_ends_the_drive(loc):
     assert loc.sighted(4.0, 2.5, 7.0) == [] and loc.activity.phase == SEARCH
 
 
+def test_a_sighting_at_a_wall_or_a_doorway_does_not_count(loc):
+    from florence_locator.places import FloorMap
+    from map_server.mapfile import load_map
+
+    grid = load_map(map_file("apartment", "apartment.yaml"))
+    loc.floor = FloorMap(grid.data, grid.origin, grid.resolution)
+    run_to_search(loc)
+    assert loc.sighted(4.9, 2.0, 1.0) == []  # at the wall to the kitchen
+    assert loc.sighted(2.4, 5.3, 1.0) == []  # in the doorway to the corridor
+    assert loc.activity.phase == NAVIGATE
+    assert names(loc.sighted(3.0, 2.4, 2.0)) == [("cancel_goal",), ("search", True)]
+
+
 def test_nobody_found_aborts(loc):
     commands = run_to_search(loc, robot=Pose(3.0, 4.0, 0.0))
     assert commands

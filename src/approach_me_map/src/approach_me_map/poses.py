@@ -35,9 +35,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import ndimage
 
 from florence_common import angles
+from florence_common.grid import Grid
 
 
 @dataclass(frozen=True)
@@ -63,34 +63,8 @@ class Candidate:
     cost: float
 
 
-class ObstacleGrid:
-    """The robot's map as obstacles: occupancy >= ``occupied`` or unknown (< 0). ``data`` (H, W)
-    with row 0 at the origin; ``origin`` (x [m], y [m], yaw [rad]); ``resolution`` [m/cell]."""
-
-    def __init__(self, data, origin, resolution, occupied=65):
-        data = np.asarray(data)
-        self.blocked = (data >= occupied) | (data < 0)
-        self.origin = tuple(float(v) for v in origin)
-        self.resolution = float(resolution)
-        # distance [m] of every cell's centre to the nearest blocked cell
-        self.clearance = ndimage.distance_transform_edt(~self.blocked) * self.resolution
-
-    def cells(self, xy):
-        """(rows, cols, inside) of points [N, 2] in the map frame."""
-        ox, oy, oyaw = self.origin
-        pts = np.asarray(xy, dtype=float).reshape(-1, 2) - (ox, oy)
-        c, s = math.cos(oyaw), math.sin(oyaw)
-        u = (c * pts[:, 0] + s * pts[:, 1]) / self.resolution
-        v = (-s * pts[:, 0] + c * pts[:, 1]) / self.resolution
-        cols, rows = np.floor(u).astype(int), np.floor(v).astype(int)
-        h, w = self.blocked.shape
-        inside = (rows >= 0) & (rows < h) & (cols >= 0) & (cols < w)
-        return np.clip(rows, 0, h - 1), np.clip(cols, 0, w - 1), inside
-
-    def clearance_at(self, xy):
-        """Clearance [m] at points [N, 2] (0 off the map)."""
-        rows, cols, inside = self.cells(xy)
-        return np.where(inside, self.clearance[rows, cols], 0.0)
+class ObstacleGrid(Grid):
+    """The robot's map as obstacles (florence_common.grid.Grid: occupancy >= ``occupied`` or unknown)."""
 
     def line_free(self, a, b, skip_near_b=0.0):
         """Whether the segment a -> b crosses no obstacle, ignoring its last ``skip_near_b`` [m]."""
@@ -101,8 +75,7 @@ class ObstacleGrid:
             return True
         n = max(2, math.ceil(usable / (0.5 * self.resolution)) + 1)
         t = np.linspace(0.0, usable / length, n)
-        rows, cols, inside = self.cells(a + t[:, None] * (b - a))
-        return bool(np.all(inside) and not np.any(self.blocked[rows, cols]))
+        return not bool(np.any(self.blocked_at(a + t[:, None] * (b - a))))
 
     def free_within(self, xy, radius):
         """Whether a disc of ``radius`` [m] at each of the points [N, 2] is free (bool [N])."""

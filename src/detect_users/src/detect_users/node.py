@@ -13,6 +13,7 @@ ROS Subscribers:
     detect_user/cmd (std_msgs/Bool): true starts a search (ignored while one runs), false cancels.
     filtered_tracked_users (user_tracker_ni/TrackedUsers): the people, positions in their frame_id.
     odom (nav_msgs/Odometry): the robot's heading and turn rate (the turns close on it).
+    map (nav_msgs/OccupancyGrid): people nearer a wall or furniture than ~min_clearance are ghosts.
 
 ROS Publishers:
     cmd_vel (geometry_msgs/Twist): the turns (remapped to the multiplexer's detect_users input);
@@ -33,11 +34,12 @@ import numpy as np
 import rospy
 import tf2_ros
 from geometry_msgs.msg import Twist
-from nav_msgs.msg import Odometry
+from nav_msgs.msg import OccupancyGrid, Odometry
 from std_msgs.msg import Bool, String
 
 from detect_users.msg import DetectedUser
 from detect_users.search import ABORTED, FOUND, Person, Search, SearchParams
+from florence_common.grid import Grid
 from florence_common.params import FRAME, Param, ParamTable
 from florence_common_ros import convert
 from florence_common_ros.diagnostics import OK, WARN, Diagnostics
@@ -59,6 +61,8 @@ PARAMS = ParamTable(
           "looked", ge=0),
     Param("look_timeout", float, _D.look_timeout, "... but no longer (a tracker short of CPU)", unit="s", gt=0),
     Param("max_range", float, _D.max_range, "a person farther from the robot is not in range", unit="m", gt=0),
+    Param("min_clearance", float, _D.min_clearance, "a person nearer than this to a wall or furniture of the map "
+          "(map) is taken for the tracker's ghost", unit="m", ge=0),
     Param("max_speed", float, _D.max_speed, "fastest turn", unit="rad/s", gt=0),
     Param("min_speed", float, _D.min_speed, "slowest turn command", unit="rad/s", ge=0),
     Param("decel", float, _D.decel, "braking of the turn profile (keep below velocity_filter's max_angular_acc)",
@@ -81,8 +85,8 @@ class DetectUsersNode:
             raise ValueError(f"~min_speed ({p.min_speed}) must not exceed ~max_speed ({p.max_speed})")
         self.search_params = SearchParams(p.steps, p.look_first, p.reset_first, p.settle_time, p.look_time,
                                           p.look_frames,
-                                          p.look_timeout, p.max_range, p.max_speed, p.min_speed, p.decel,
-                                          p.tolerance, turn_timeout=p.turn_timeout)
+                                          p.look_timeout, p.max_range, p.min_clearance, p.max_speed, p.min_speed,
+                                          p.decel, p.tolerance, turn_timeout=p.turn_timeout)
         self.lock = threading.Lock()
         self.odom = None  # (t [s], yaw [rad], yaw rate [rad/s])
         self.people = []  # (stamp [s], [Person]) of the tracker messages not yet looked at
@@ -104,6 +108,8 @@ class DetectUsersNode:
         self.diag = Diagnostics("detect_users")
         self.diag.add("Search", self._diagnose)
 
+        self.grid = None  # florence_common.grid.Grid of the robot's map
+        rospy.Subscriber("map", OccupancyGrid, self._on_map, queue_size=1)
         rospy.Subscriber("odom", Odometry, self._on_odom, queue_size=5)
         rospy.Subscriber("filtered_tracked_users", TrackedUsers, self._on_users, queue_size=10)
         rospy.Subscriber("detect_user/cmd", Bool, self._on_cmd, queue_size=5)
@@ -123,6 +129,16 @@ class DetectUsersNode:
             return
         with self.lock:
             self.odom = (msg.header.stamp.to_sec(), yaw, rate)
+
+    def _on_map(self, msg):
+        info = msg.info
+        if info.width * info.height != len(msg.data) or info.resolution <= 0:
+            rospy.logwarn(LOG + "map of %dx%d cells with %d values ignored", info.width, info.height, len(msg.data))
+            return
+        grid = Grid(np.asarray(msg.data, dtype=np.int16).reshape(info.height, info.width),
+                    convert.to_xyyaw(info.origin), info.resolution)
+        with self.lock:
+            self.grid = grid
 
     def _on_users(self, msg):
         with self.lock:
@@ -145,11 +161,15 @@ class DetectUsersNode:
             rospy.logwarn_throttle(5.0, LOG + "users skipped: %s", why or why2)
             return
         people = []
+        with self.lock:
+            grid = self.grid
         for uid, pos in zip(msg.user_ids, msg.positions, strict=True):
             if not (math.isfinite(pos.x) and math.isfinite(pos.y)):
                 continue
             x, y = (to_map @ np.array([pos.x, pos.y, 0.0, 1.0]))[:2]
-            people.append(Person(float(x), float(y), math.hypot(pos.x - robot[0, 3], pos.y - robot[1, 3]), int(uid)))
+            clearance = math.inf if grid is None else float(grid.clearance_at([[x, y]])[0])
+            people.append(Person(float(x), float(y), math.hypot(pos.x - robot[0, 3], pos.y - robot[1, 3]), int(uid),
+                                 clearance))
         with self.lock:
             self.people.append((msg.stamp.to_sec(), people))
 

@@ -46,6 +46,7 @@ class SearchParams:
     look_frames: int = 10  # ... and until the tracker has published this many messages since it looked
     look_timeout: float = 6.0  # [s] ... but no longer (a tracker starved of CPU publishes late)
     max_range: float = 4.0  # [m] a person farther from the robot is not "in range"
+    min_clearance: float = 0.15  # [m] a "person" nearer a wall or furniture of the map is the tracker's ghost
     max_speed: float = 0.6  # [rad/s] fastest turn
     min_speed: float = 0.2  # [rad/s] slowest turn command (the base's static friction)
     decel: float = 0.6  # [rad/s^2] braking of the turn profile (below velocity_filter's 1.0)
@@ -74,12 +75,15 @@ class Person:
     y: float
     distance: float
     user_id: int = -1
+    clearance: float = math.inf  # [m] to the nearest obstacle of the robot's map (inf: no map)
 
 
-def pick(people, max_range):
-    """The person the robot approaches: the nearest within ``max_range`` [m], or None."""
+def pick(people, max_range, min_clearance=0.0):
+    """The person the robot approaches: the nearest within ``max_range`` [m] whose centre is at least
+    ``min_clearance`` [m] from the map's obstacles (a person's body keeps their centre that far from a
+    wall; the tracker's ghosts on door frames and furniture edges are nearer), or None."""
     near = [p for p in people if math.isfinite(p.distance) and p.distance <= max_range
-            and math.isfinite(p.x) and math.isfinite(p.y)]
+            and math.isfinite(p.x) and math.isfinite(p.y) and p.clearance >= min_clearance]
     return min(near, key=lambda p: p.distance) if near else None
 
 
@@ -177,7 +181,7 @@ class Search:
 
     def _look(self, now, people):
         p = self.params
-        person = pick(people, p.max_range)
+        person = pick(people, p.max_range, p.min_clearance)
         if person is not None:
             return self._end(FOUND, now, person=person)
         looked = now - self.since >= p.look_time and self.frames >= p.look_frames

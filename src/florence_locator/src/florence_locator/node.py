@@ -80,7 +80,11 @@ PARAMS = ParamTable(
     Param("tracker_service", str, "/user_tracker_ni_node/Stop", "gotoUser is refused while no node serves this "
           "('' = no check)"),
     Param("sighting_range", float, 3.0, "gotoUser: a tracked person this near the robot in the user's room, seen "
-          "on the way there, ends the drive and starts the search (0 = off)", unit="m", ge=0),
+          "on the way there, ends the drive and starts the search (0 = off) ...", unit="m", ge=0),
+    Param("sighting_margin", float, 0.5, "... when this far inside the room (not in its doorways) ...", unit="m",
+          ge=0),
+    Param("sighting_clearance", float, 0.25, "... and this far from the map's walls and furniture (the tracker's "
+          "ghosts sit on door frames and furniture edges)", unit="m", ge=0),
 )
 
 
@@ -98,7 +102,8 @@ class FlorenceLocatorNode:
                           p.hotspots_file, len(rooms.hotspots), p.rooms_file)
         self.core = Locator(rooms, hotspots, timeouts=Timeouts(p.heartbeat_timeout, p.search_timeout,
                                                                 p.approach_timeout),
-                            hotspot_clearance=p.hotspot_clearance)
+                            hotspot_clearance=p.hotspot_clearance, sighting_margin=p.sighting_margin,
+                            sighting_clearance=p.sighting_clearance)
         self.lock = threading.RLock()
         self.events = queue.Queue()  # actionlib's callbacks, handled by the tick thread
         self.last_save_error = ""

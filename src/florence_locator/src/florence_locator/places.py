@@ -28,6 +28,7 @@ import yaml
 
 from florence_common import angles
 from florence_common.files import atomic_write
+from florence_common.grid import Grid
 from florence_common.yamlfile import YamlError, line_of, load
 
 UNKNOWN = "unknown"  # the label of every point outside the rooms (never a room's name)
@@ -218,51 +219,37 @@ def _pose_entry(entry, path, line, name):
 
 
 # --- the map -------------------------------------------------------------------------------------------------
-class FloorMap:
-    """An occupancy grid (map_server's map: 0..100 occupancy, -1 unknown; row 0 at the origin's y)
-    that says whether the robot can stand at a point."""
-
-    def __init__(self, data, origin, resolution, occupied=65):
-        """``data`` (H, W) ints; ``origin`` (x [m], y [m], yaw [rad]) of cell (0, 0)'s corner;
-        ``resolution`` [m/cell]; cells with occupancy >= ``occupied`` are obstacles."""
-        self.data = np.asarray(data)
-        self.origin = tuple(float(v) for v in origin)
-        self.resolution = float(resolution)
-        self.occupied = occupied
-        self.blocked = (self.data >= occupied) | (self.data < 0)
-
-    def cell(self, x, y):
-        """(row, col) of the map point (x, y), or None off the grid."""
-        ox, oy, oyaw = self.origin
-        c, s = math.cos(-oyaw), math.sin(-oyaw)
-        dx, dy = x - ox, y - oy
-        col = math.floor((c * dx - s * dy) / self.resolution)
-        row = math.floor((s * dx + c * dy) / self.resolution)
-        h, w = self.data.shape
-        return (row, col) if 0 <= row < h and 0 <= col < w else None
+class FloorMap(Grid):
+    """The robot's map (florence_common.grid.Grid) saying whether the robot can stand at a point."""
 
     def problem(self, x, y, clearance=0.0):
         """None when the robot can stand at (x, y) [m] with ``clearance`` [m] to every obstacle or
         unknown cell, else the reason in words."""
         if not (math.isfinite(x) and math.isfinite(y)):
             return "the point is not finite"
-        cell = self.cell(x, y)
-        if cell is None:
+        rows, cols, inside = self.cells([[x, y]])
+        if not inside[0]:
             return f"({x:.2f}, {y:.2f}) is off the map"
-        row, col = cell
-        value = int(self.data[row, col])
+        value = int(self.data[rows[0], cols[0]])
         if value < 0:
             return f"({x:.2f}, {y:.2f}) is unknown space on the map"
         if value >= self.occupied:
             return f"({x:.2f}, {y:.2f}) is inside a wall or furniture on the map"
-        r = math.ceil(clearance / self.resolution)
-        if r > 0:
-            h, w = self.data.shape
-            rows, cols = np.ogrid[max(0, row - r):min(h, row + r + 1), max(0, col - r):min(w, col + r + 1)]
-            near = ((rows - row) ** 2 + (cols - col) ** 2) * self.resolution ** 2 <= clearance ** 2
-            if np.any(self.blocked[rows, cols] & near) or row - r < 0 or col - r < 0 or row + r >= h or col + r >= w:
-                return f"({x:.2f}, {y:.2f}) is less than {clearance:.2f} m from an obstacle on the map"
+        if clearance > 0 and self.clearance_at([[x, y]])[0] < clearance:
+            return f"({x:.2f}, {y:.2f}) is less than {clearance:.2f} m from an obstacle on the map"
         return None
+
+    def depth_inside(self, polygon, x, y):
+        """[m] from (x, y) to the nearest edge of ``polygon`` (0 outside it)."""
+        if not contains(polygon, x, y):
+            return 0.0
+        pts = np.asarray(polygon, dtype=float)
+        best = math.inf
+        for (ax, ay), (bx, by) in zip(pts, np.roll(pts, -1, axis=0), strict=True):
+            dx, dy = bx - ax, by - ay
+            t = 0.0 if dx == dy == 0 else max(0.0, min(1.0, ((x - ax) * dx + (y - ay) * dy) / (dx * dx + dy * dy)))
+            best = min(best, math.hypot(x - ax - t * dx, y - ay - t * dy))
+        return best
 
 
 # --- hotspots -----------------------------------------------------------------------------------------------
