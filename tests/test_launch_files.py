@@ -19,9 +19,6 @@ pytestmark = pytest.mark.unit
 # Executables the seed's launch files start that are not written yet, with the issue
 # that delivers them. An entry must be removed once the executable exists (checked below).
 PENDING = {
-    ("florence_locator", "florence_locator_node"): "not scheduled yet",
-    ("detect_users", "detect_users_node"): "not scheduled yet",
-    ("approach_me_map", "approach_me_map_node"): "not scheduled yet",
     ("follow_me", "follow_me_node"): "not scheduled yet",
     ("approach_me", "approach_me_node"): "not scheduled yet",
 }

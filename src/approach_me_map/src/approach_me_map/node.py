@@ -1,0 +1,414 @@
+"""approach_me_map_node: go to a polite pose near a detected user with move_base (seed 3.10,
+Table 13).
+
+On ``detected_user`` with command true, the node ranks poses at ``~safe_distance`` around the
+user (approach_me_map.poses: the robot's side, front-left / front-right before head-on, never
+the far side while another is free), asks move_base's make_plan for a path to the best ones,
+sends the first with a path as a move_base goal, and after move_base stops turns to face the user
+and drives straight to ``~safe_distance`` (the last half metre, closed on odometry: move_base's
+0.25 m goal tolerance is too coarse). A failed trial moves on to another pose: at most ``~trials``
+(3, seed), then ABORTED. The user's position follows the tracker while the robot approaches.
+``detected_user`` with command false stops the approach (its move_base goal is cancelled).
+
+ROS Parameters: PARAMS below (rendered in the README).
+
+ROS Subscribers:
+    detected_user (detect_users/DetectedUser): command true: approach the user at (x, y) in
+        ~map_frame; command false: stop.
+    filtered_tracked_users (user_tracker_ni/TrackedUsers): the user's position while approaching.
+    map (nav_msgs/OccupancyGrid): walls and furniture, to rank the poses.
+    scan (sensor_msgs/LaserScan): what is ahead of the robot in the last half metre.
+    odom (nav_msgs/Odometry): the robot's speed at rest or not.
+
+ROS Publishers:
+    approach_user/status (std_msgs/String): ACTIVE (once a second while approaching), SUCCEEDED,
+        ABORTED (no free pose, no plan, move_base failed 3 times, or the user was lost), PREEMPTED
+        (stopped by command false).
+    cmd_vel (geometry_msgs/Twist): the last half metre (remapped to the multiplexer's
+        approach_me_map input); a zero Twist at the end and on shutdown.
+    ~goal_poses (geometry_msgs/PoseArray, latched): the ranked candidate poses of the last approach.
+    /diagnostics: the approach under way and the last outcome with its reason.
+
+ROS Actions (client): move_base (move_base_msgs/MoveBaseAction).
+ROS Services (client): move_base/make_plan (nav_msgs/GetPlan).
+"""
+
+import math
+import threading
+
+import actionlib
+import numpy as np
+import rospy
+import tf2_ros
+from actionlib_msgs.msg import GoalStatus
+from geometry_msgs.msg import PoseArray, Twist
+from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
+from nav_msgs.msg import OccupancyGrid, Odometry
+from nav_msgs.srv import GetPlan
+from sensor_msgs.msg import LaserScan
+from std_msgs.msg import String
+
+from approach_me_map.poses import Align, AlignParams, ApproachParams, ObstacleGrid, rank
+from detect_users.msg import DetectedUser
+from florence_common import pose as pose2d
+from florence_common.params import FRAME, Param, ParamTable
+from florence_common_ros import convert
+from florence_common_ros.actions import server_ready, state_name
+from florence_common_ros.diagnostics import OK, WARN, Diagnostics
+from florence_common_ros.node import publish_stop, read_params, run
+from florence_common_ros.transforms import lookup_matrix
+from user_tracker_ni.msg import TrackedUsers
+
+LOG = "approach_me_map: "
+_A, _L = ApproachParams(), AlignParams()
+PARAMS = ParamTable(
+    Param("safe_distance", float, _A.safe_distance, "distance from the user's centre to the robot's at the end "
+          "(seed DEFAULT_SAFE_DISTANCE)", unit="m", ge=0.45, le=2.0),
+    Param("trials", int, 3, "poses sent to move_base before ABORTED (seed: 3)", ge=1),
+    Param("plan_checks", int, 8, "candidate poses asked of make_plan for each trial", ge=1),
+    Param("candidate_step", float, math.degrees(_A.step), "angle between candidate poses around the user",
+          unit="deg", gt=0, le=90),
+    Param("preferred_offset", float, math.degrees(_A.preferred_offset), "front-left / front-right: the angle "
+          "at the user from the line to the robot that costs least", unit="deg", ge=0, le=60),
+    Param("min_clearance", float, _A.min_clearance, "a pose this near walls or furniture of the map is not "
+          "used", unit="m", ge=0),
+    Param("goal_timeout", float, 120.0, "longest move_base trial", unit="s", gt=0),
+    Param("align", bool, True, "after move_base, turn to the user and drive to safe_distance (the last half "
+          "metre); false: move_base's tolerance only"),
+    Param("align_speed", float, _L.max_speed, "fastest straight move of the last half metre", unit="m/s", gt=0,
+          le=0.3),
+    Param("front_margin", float, _L.front_margin, "free space kept ahead of the robot's nose in the last half "
+          "metre (laser)", unit="m", ge=0),
+    Param("accept_distance", float, _L.accept_distance, "success: within this of safe_distance ...", unit="m",
+          gt=0),
+    Param("accept_angle", float, math.degrees(_L.accept_angle), "... and facing the user within this",
+          unit="deg", gt=0),
+    Param("nose", float, 0.24, "the robot's front edge from its centre (the footprint's tip)", unit="m", gt=0),
+    Param("half_width", float, 0.19, "half the robot's width, plus a margin (the corridor checked ahead)",
+          unit="m", gt=0),
+    Param("track_gate", float, 0.6, "a tracked person this near the user's position is the user", unit="m",
+          gt=0),
+    Param("retarget_distance", float, 0.5, "the user moved this far: the trial starts over from there",
+          unit="m", gt=0),
+    Param("rate", float, 20.0, "control rate of the last half metre", unit="Hz", gt=0),
+    Param("map_frame", FRAME, "map", "the frame of detected_user, the map and the goals"),
+    Param("odom_frame", FRAME, "odom", "the frame the last half metre closes on"),
+    Param("base_frame", FRAME, "base_link", "the robot's frame"),
+)
+
+
+class Cancelled(Exception):
+    pass
+
+
+class ApproachMeMapNode:
+    def __init__(self):
+        self.p = p = read_params(PARAMS)
+        self.params = ApproachParams(p.safe_distance, math.radians(p.candidate_step), math.radians(p.preferred_offset),
+                                     min_clearance=p.min_clearance)
+        self.align_params = AlignParams(p.safe_distance, p.align_speed, front_margin=p.front_margin,
+                                        accept_distance=p.accept_distance, accept_angle=math.radians(p.accept_angle))
+        self.lock = threading.Lock()
+        self.grid = None
+        self.request = None  # (x, y) of the newest detection not yet taken
+        self.user = None  # (x, y) [m, map] of the user being approached
+        self.scan = None  # (stamp [s], points [N, 2] in base_frame)
+        self.speed = (0.0, 0.0, -math.inf)  # v [m/s], w [rad/s], stamp [s]
+        self.running = False
+        self.cancel = threading.Event()
+        self.wake = threading.Event()
+        self.last = "no approach yet"
+        self.last_level = OK
+
+        self.tf_buffer = tf2_ros.Buffer(cache_time=rospy.Duration(10.0))
+        self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
+        self.client = actionlib.SimpleActionClient("move_base", MoveBaseAction)
+        self.make_plan = rospy.ServiceProxy("move_base/make_plan", GetPlan)
+
+        self.status_pub = rospy.Publisher("approach_user/status", String, queue_size=5)
+        self.cmd_pub = rospy.Publisher("cmd_vel", Twist, queue_size=1)
+        self.poses_pub = rospy.Publisher("~goal_poses", PoseArray, queue_size=1, latch=True)
+        self.diag = Diagnostics("approach_me_map")
+        self.diag.add("Approach", self._diagnose)
+
+        rospy.Subscriber("map", OccupancyGrid, self._on_map, queue_size=1)
+        rospy.Subscriber("scan", LaserScan, self._on_scan, queue_size=1)
+        rospy.Subscriber("odom", Odometry, self._on_odom, queue_size=5)
+        rospy.Subscriber("filtered_tracked_users", TrackedUsers, self._on_users, queue_size=5)
+        rospy.Subscriber("detected_user", DetectedUser, self._on_detected, queue_size=5)
+        self.worker = threading.Thread(target=self._run, name="approach_me_map", daemon=True)
+        self.worker.start()
+
+    # --- inputs --------------------------------------------------------------------------------------------------
+    def _on_map(self, msg):
+        info = msg.info
+        if info.width * info.height != len(msg.data) or info.resolution <= 0:
+            rospy.logwarn(LOG + "map of %dx%d cells with %d values ignored", info.width, info.height, len(msg.data))
+            return
+        grid = ObstacleGrid(np.asarray(msg.data, dtype=np.int16).reshape(info.height, info.width),
+                            convert.to_xyyaw(info.origin), info.resolution)
+        with self.lock:
+            self.grid = grid
+
+    def _on_scan(self, msg):
+        with self.lock:
+            if not self.running:
+                return
+        m, why = lookup_matrix(self.tf_buffer, self.p.base_frame, msg.header.frame_id, rospy.Time(0), 0.0)  # fixed
+        if m is None:
+            rospy.logwarn_throttle(5.0, LOG + "scan skipped: %s", why)
+            return
+        r = np.asarray(msg.ranges, dtype=float)
+        a = msg.angle_min + msg.angle_increment * np.arange(len(r))
+        ok = np.isfinite(r) & (r > msg.range_min) & (r < msg.range_max)
+        pts = np.column_stack([r[ok] * np.cos(a[ok]), r[ok] * np.sin(a[ok]), np.zeros(ok.sum()), np.ones(ok.sum())])
+        base = (m @ pts.T).T[:, :2]
+        with self.lock:
+            self.scan = (msg.header.stamp.to_sec(), base)
+
+    def _on_odom(self, msg):
+        v, w = msg.twist.twist.linear.x, msg.twist.twist.angular.z
+        if math.isfinite(v) and math.isfinite(w):
+            with self.lock:
+                self.speed = (v, w, msg.header.stamp.to_sec())
+
+    def _on_users(self, msg):
+        with self.lock:
+            user = self.user if self.running else None
+        if user is None or not msg.user_ids or len(msg.positions) != len(msg.user_ids) or not msg.frame_id:
+            return
+        # the latest map -> frame_id (amcl's map -> odom changes slowly; a lookup at the stamp fails
+        # whenever amcl's transform comes late)
+        m, why = lookup_matrix(self.tf_buffer, self.p.map_frame, msg.frame_id, rospy.Time(0), 0.0)
+        if m is None:
+            rospy.logwarn_throttle(5.0, LOG + "tracked users skipped: %s", why)
+            return
+        pts = np.array([[q.x, q.y, 0.0, 1.0] for q in msg.positions])
+        xy = (m @ pts.T).T[:, :2]
+        xy = xy[np.all(np.isfinite(xy), axis=1)]
+        if not len(xy):
+            return
+        d = np.hypot(xy[:, 0] - user[0], xy[:, 1] - user[1])
+        k = int(np.argmin(d))
+        if d[k] <= self.p.track_gate:
+            with self.lock:
+                if self.running:
+                    self.user = (float(xy[k, 0]), float(xy[k, 1]))
+
+    def _on_detected(self, msg):
+        if not msg.command:
+            with self.lock:
+                self.request = None
+            self.cancel.set()
+            return
+        x, y = msg.user_position_x, msg.user_position_y
+        if not (math.isfinite(x) and math.isfinite(y)):
+            rospy.logwarn(LOG + "detected_user at a position that is not finite: ignored")
+            return
+        with self.lock:
+            self.request = (float(x), float(y))
+        self.cancel.set()  # a new user position: the running approach (if any) gives way
+        self.wake.set()
+
+    # --- the approach ------------------------------------------------------------------------------------------------
+    def _status(self, text):
+        self.status_pub.publish(String(text))
+
+    def _run(self):
+        while not rospy.is_shutdown():
+            if not self.wake.wait(0.5):
+                continue
+            self.wake.clear()
+            with self.lock:
+                request, self.request = self.request, None
+            if request is None:
+                continue
+            self.cancel.clear()
+            with self.lock:
+                self.user, self.running = request, True
+            outcome, why = "ABORTED", ""
+            try:
+                outcome, why = self._approach()
+            except Cancelled:
+                outcome, why = "PREEMPTED", "stopped (detected_user command false, or a new detection)"
+            except rospy.ROSInterruptException:
+                return
+            except Exception as exc:  # noqa: BLE001 - every approach ends with a reason
+                rospy.logerr(LOG + "approach failed: %s", exc)
+                outcome, why = "ABORTED", f"internal error: {type(exc).__name__}: {exc}"
+            finally:
+                with self.lock:
+                    self.running = False
+                self.cmd_pub.publish(Twist())
+            self.last = f"{outcome}: {why}"
+            self.last_level = OK if outcome in ("SUCCEEDED", "PREEMPTED") else WARN
+            (rospy.loginfo if outcome != "ABORTED" else rospy.logwarn)(LOG + "%s", self.last)
+            self._status(outcome)
+
+    def _check(self):
+        if self.cancel.is_set() or rospy.is_shutdown():
+            raise Cancelled
+
+    def _robot(self, frame):
+        m, why = lookup_matrix(self.tf_buffer, frame, self.p.base_frame, rospy.Time(0), 0.3)
+        return (None, why) if m is None else (pose2d.from_matrix(m[[0, 1, 3]][:, [0, 1, 3]]), None)
+
+    def _heartbeat(self, state):
+        now = rospy.get_time()
+        if now - state.get("active", -math.inf) >= 1.0:
+            self._status("ACTIVE")
+            state["active"] = now
+
+    def _approach(self):
+        p = self.p
+        beat = {}
+        self._heartbeat(beat)
+        if not server_ready(self.client):
+            return "ABORTED", "move_base is not running"
+        tried, notes = [], []
+        for trial in range(1, p.trials + 1):
+            self._check()
+            robot, why = self._robot(p.map_frame)
+            if robot is None:
+                return "ABORTED", f"no robot pose: {why}"
+            with self.lock:
+                user, grid = self.user, self.grid
+            candidates = rank(user, robot[:2], self.params, grid, exclude=tried)
+            if trial == 1:
+                self._publish_candidates(candidates)
+            goal = self._plannable(candidates, robot, beat)
+            if goal is None:
+                notes.append(f"trial {trial}: no pose around ({user[0]:.2f}, {user[1]:.2f}) with a path"
+                             + ("" if candidates else " (none free on the map)"))
+                break
+            tried.append(goal.angle)
+            ok, why = self._drive(goal, user, beat)
+            notes.append(f"trial {trial} at {math.degrees(goal.offset):+.0f} deg: {why}")
+            if ok:
+                return "SUCCEEDED", "; ".join(notes)
+        return "ABORTED", "; ".join(notes) or "no trial"
+
+    def _plannable(self, candidates, robot, beat):
+        for c in candidates[:self.p.plan_checks]:
+            self._check()
+            self._heartbeat(beat)
+            try:
+                self.make_plan.wait_for_service(2.0)
+                plan = self.make_plan(start=convert.pose_stamped(*robot, self.p.map_frame, rospy.Time.now()),
+                                      goal=convert.pose_stamped(c.x, c.y, c.yaw, self.p.map_frame, rospy.Time.now()),
+                                      tolerance=0.0).plan
+            except (rospy.ROSException, rospy.ServiceException) as exc:
+                rospy.logwarn_throttle(5.0, LOG + "make_plan failed: %s", exc)
+                continue
+            if plan.poses:
+                return c
+        return None
+
+    def _drive(self, goal, user, beat):
+        """One trial: move_base to ``goal``, then the last half metre. (ok, what happened)."""
+        p = self.p
+        done = threading.Event()
+        self.client.send_goal(MoveBaseGoal(target_pose=convert.pose_stamped(goal.x, goal.y, goal.yaw, p.map_frame,
+                                                                            rospy.Time.now())),
+                              done_cb=lambda *_: done.set())
+        started = rospy.get_time()
+        try:
+            while not done.wait(0.1):
+                self._check()
+                self._heartbeat(beat)
+                with self.lock:
+                    now_user = self.user
+                if math.hypot(now_user[0] - user[0], now_user[1] - user[1]) > p.retarget_distance:
+                    self.client.cancel_goal()
+                    return False, f"the user moved to ({now_user[0]:.2f}, {now_user[1]:.2f})"
+                if rospy.get_time() - started > p.goal_timeout:
+                    self.client.cancel_goal()
+                    return False, f"move_base took longer than {p.goal_timeout:.0f} s"
+        except Cancelled:
+            self.client.cancel_goal()
+            raise
+        state = self.client.get_state()
+        text = self.client.get_goal_status_text()
+        robot, _ = self._robot(p.map_frame)
+        with self.lock:
+            now_user = self.user
+        near = robot is not None and math.hypot(robot[0] - now_user[0], robot[1] - now_user[1]) \
+            < p.safe_distance + 0.6
+        if state != GoalStatus.SUCCEEDED and not near:
+            return False, f"move_base {state_name(state)}: {text}"
+        if not p.align:
+            return True, f"move_base {state_name(state)}"
+        return self._align(beat)
+
+    def _align(self, beat):
+        """The last half metre in the odometry frame."""
+        p = self.p
+        align = Align(self.align_params, rospy.get_time())
+        rate = rospy.Rate(p.rate)
+        while True:
+            self._check()
+            self._heartbeat(beat)
+            m, why = lookup_matrix(self.tf_buffer, p.odom_frame, p.map_frame, rospy.Time(0), 0.3)
+            robot, why2 = self._robot(p.odom_frame)
+            if m is None or robot is None:
+                return False, f"last half metre: {why or why2}"
+            with self.lock:
+                user_map, speed, scan, grid = self.user, self.speed, self.scan, self.grid
+            user = tuple((m @ np.array([user_map[0], user_map[1], 0.0, 1.0]))[:2])
+            front = self._front_free(scan)
+            back = self._back_free(grid)
+            step = align.update(rospy.get_time(), robot, speed[:2], user, front, back)
+            if step.done:
+                self.cmd_pub.publish(Twist())
+                return step.ok, f"last half metre: {step.why}"
+            cmd = Twist()
+            cmd.linear.x, cmd.angular.z = step.v, step.w
+            self.cmd_pub.publish(cmd)
+            try:
+                rate.sleep()
+            except rospy.ROSTimeMovedBackwardsException:
+                rate = rospy.Rate(p.rate)
+
+    def _front_free(self, scan):
+        """Free distance [m] ahead of the nose in the robot's corridor (inf with no scan)."""
+        if scan is None or rospy.get_time() - scan[0] > 1.0:
+            return 0.0  # no fresh scan: do not drive forward blind
+        pts = scan[1]
+        ahead = pts[(pts[:, 0] > 0.0) & (np.abs(pts[:, 1]) <= self.p.half_width)]
+        return float(np.min(ahead[:, 0]) - self.p.nose) if len(ahead) else math.inf
+
+    def _back_free(self, grid):
+        """Free distance [m] behind the robot on the map (0 without one): how far it may back up."""
+        robot, _ = self._robot(self.p.map_frame)
+        if grid is None or robot is None:
+            return 0.0
+        back = [pose2d.compose(robot, (-d, 0.0, 0.0))[:2] for d in np.arange(0.0, 0.3, 0.02)]
+        free = grid.free_within(back, self.p.half_width)
+        blocked = np.nonzero(~free)[0]
+        return 0.3 if not len(blocked) else float(blocked[0] * 0.02)
+
+    def _publish_candidates(self, candidates):
+        msg = PoseArray()
+        msg.header.frame_id, msg.header.stamp = self.p.map_frame, rospy.Time.now()
+        msg.poses = [convert.pose_msg(c.x, c.y, c.yaw) for c in candidates]
+        self.poses_pub.publish(msg)
+
+    # --- diagnostics and shutdown ------------------------------------------------------------------------------------
+    def _diagnose(self, stat):
+        with self.lock:
+            running, user = self.running, self.user
+        if running:
+            stat.summary(OK, f"approaching the user at ({user[0]:.2f}, {user[1]:.2f})")
+        else:
+            stat.summary(self.last_level, self.last)
+        stat.add("Last approach", self.last)
+        return stat
+
+    def shutdown(self):
+        self.cancel.set()
+        self.diag.shutdown()
+        publish_stop(self.cmd_pub)
+
+
+def main():
+    run(ApproachMeMapNode, "approach_me_map_node")

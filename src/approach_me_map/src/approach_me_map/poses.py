@@ -1,0 +1,222 @@
+"""Where approach_me_map stops near a user, and the last half metre, without ROS (seed 3.10).
+
+**Candidate poses.** On a circle of ``safe_distance`` (0.5 m, seed) around the user, every
+``step`` degrees, facing the user. A candidate needs ``min_clearance`` [m] to every wall,
+piece of furniture and unknown cell of the robot's map, and a straight line of sight to the user
+that crosses no obstacle (no pose on the far side of a wall). Candidates are ranked
+(:func:`rank`), best first:
+
+- on the robot's side of the user (seed 3.10: "first on the robot's side"): the angle at the user
+  between the line to the robot and the line to the candidate, ``offset``, is what counts. The
+  far side costs most: a person who faces the robot that found them would be approached from
+  behind (Walters et al. 2007: never from behind);
+- front-left or front-right rather than head-on: an offset near ``preferred_offset`` (30 deg)
+  costs least (Dautenhahn et al. 2006: seated people dislike a frontal approach and prefer the
+  left or right, slightly the right; Walters et al. 2007: frontal is acceptable for a standing
+  person in open space, so head-on is the next choice, where the room allows no other);
+- the person's right (the robot's left as it faces them) by a little;
+- more room around the pose, then the shorter way for the robot.
+
+The tracker does not say which way a person faces, so "front" is the side the robot saw them
+from.
+
+**Trials.** approach_me_map asks move_base's ``make_plan`` for the best candidates first (those
+without a path are skipped), sends the first with a path to move_base, and after a failure tries
+the next one at least ``trial_separation`` away in angle: at most 3 trials (seed 3.10).
+
+**The last half metre** (:class:`Align`). move_base stops within its xy_goal_tolerance (0.25 m)
+of the goal, too coarse for 0.5 m from a person. From where it stopped, the robot turns on the
+spot to face the user, drives straight toward or away from them to ``safe_distance`` (slowly;
+forward only while the laser shows ``front_margin`` free beyond its nose, backward only as far as
+the map is free behind it), and turns to face them again. Closed on odometry.
+"""
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from florence_common import angles
+from florence_common.grid import Grid
+
+
+@dataclass(frozen=True)
+class ApproachParams:
+    safe_distance: float = 0.5  # [m] centre of the robot to centre of the user (seed DEFAULT_SAFE_DISTANCE)
+    step: float = math.radians(15.0)  # [rad] between candidate angles around the user
+    preferred_offset: float = math.radians(30.0)  # [rad] front-left / front-right
+    side_limit: float = math.radians(90.0)  # [rad] beyond this offset: the far side
+    min_clearance: float = 0.25  # [m] from a candidate's centre to walls and furniture on the map
+    user_radius: float = 0.3  # [m] obstacles this near the user are the user's seat (sofa, chair, bed)
+    trial_separation: float = math.radians(40.0)  # [rad] a new trial differs this much from the tried ones
+    right_bonus: float = 0.05  # cost taken off the person's right side
+
+
+@dataclass(frozen=True)
+class Candidate:
+    x: float  # [m] map
+    y: float
+    yaw: float  # [rad] facing the user
+    angle: float  # [rad] direction from the user to the pose
+    offset: float  # [rad] angle at the user from the line to the robot, counter-clockwise positive
+    clearance: float  # [m] to the nearest obstacle of the map
+    cost: float
+
+
+class ObstacleGrid(Grid):
+    """The robot's map as obstacles (florence_common.grid.Grid: occupancy >= ``occupied`` or unknown)."""
+
+    def line_free(self, a, b, skip_near_b=0.0):
+        """Whether the segment a -> b crosses no obstacle, ignoring its last ``skip_near_b`` [m]."""
+        a, b = np.asarray(a, float), np.asarray(b, float)
+        length = float(np.hypot(*(b - a)))
+        usable = length - skip_near_b
+        if usable <= 0:
+            return True
+        n = max(2, math.ceil(usable / (0.5 * self.resolution)) + 1)
+        t = np.linspace(0.0, usable / length, n)
+        return not bool(np.any(self.blocked_at(a + t[:, None] * (b - a))))
+
+    def free_within(self, xy, radius):
+        """Whether a disc of ``radius`` [m] at each of the points [N, 2] is free (bool [N])."""
+        return self.clearance_at(xy) >= radius
+
+
+def rank(user, robot, p, grid=None, exclude=()):
+    """Candidate poses around ``user`` (x, y) [m] for a robot at ``robot`` (x, y) [m], best first
+    (module docstring). ``grid``: an ObstacleGrid (None: every pose is free); ``exclude``: angles
+    [rad] around the user already tried (candidates nearer than p.trial_separation are left out)."""
+    ux, uy = user
+    toward_robot = math.atan2(robot[1] - uy, robot[0] - ux)
+    n = max(4, round(2 * math.pi / p.step))
+    offsets = np.array([angles.wrap(k * 2 * math.pi / n) for k in range(n)])
+    directions = toward_robot + offsets
+    xy = np.column_stack([ux + p.safe_distance * np.cos(directions), uy + p.safe_distance * np.sin(directions)])
+    clearance = np.full(n, math.inf) if grid is None else grid.clearance_at(xy)
+    out = []
+    for k in range(n):
+        direction = float(angles.wrap(directions[k]))
+        if any(abs(angles.diff(direction, e)) < p.trial_separation for e in exclude):
+            continue
+        if clearance[k] < p.min_clearance:
+            continue
+        if grid is not None and not grid.line_free(xy[k], (ux, uy), skip_near_b=p.user_radius):
+            continue
+        off = float(offsets[k])
+        cost = _angle_cost(abs(off), p) + 0.2 * max(0.0, 0.45 - min(clearance[k], 0.45)) / 0.2
+        if off < 0:  # clockwise from the robot's line: the right of a person facing the robot
+            cost -= p.right_bonus
+        cost += 0.1 * float(np.hypot(xy[k, 0] - robot[0], xy[k, 1] - robot[1]))
+        out.append(Candidate(float(xy[k, 0]), float(xy[k, 1]), float(angles.wrap(direction + math.pi)), direction,
+                             off, float(clearance[k]), float(cost)))
+    out.sort(key=lambda c: c.cost)
+    return out
+
+
+def _angle_cost(offset, p):
+    """Cost of an approach ``offset`` [rad] (absolute) from the line toward the robot."""
+    front = p.preferred_offset
+    if offset <= 2 * front:  # front-left / front-right best, head-on next
+        return 0.5 * abs(offset - front) / front
+    if offset <= p.side_limit:  # beside the person
+        return 0.5 + (offset - 2 * front) / max(p.side_limit - 2 * front, 1e-6)
+    return 3.0 + (offset - p.side_limit) / math.pi  # the far side: only when nothing else is free
+
+
+# --- the last half metre -------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class AlignParams:
+    safe_distance: float = 0.5  # [m]
+    max_speed: float = 0.15  # [m/s]
+    min_speed: float = 0.04  # [m/s]
+    accel: float = 0.3  # [m/s^2] braking of the straight move
+    max_turn: float = 0.6  # [rad/s]
+    min_turn: float = 0.15  # [rad/s]
+    turn_decel: float = 0.8  # [rad/s^2]
+    angle_tolerance: float = math.radians(2.0)  # [rad] facing the user this well ends a turn ...
+    angle_overshoot: float = math.radians(6.0)  # [rad] ... and so does having turned past by at most this
+    distance_tolerance: float = 0.03  # [m] the straight move ends this near safe_distance ...
+    distance_overshoot: float = 0.06  # [m] ... or having driven past it by at most this
+    front_margin: float = 0.05  # [m] free space kept ahead of the robot's nose (laser)
+    back_margin: float = 0.05  # [m] free space kept behind the robot (map)
+    still_rate: float = 0.05  # [rad/s] and [m/s]: at rest below this
+    lead: float = 0.3  # [s] the braking looks this far ahead at the measured speed (late commands)
+    accept_distance: float = 0.1  # [m] success: |distance - safe_distance| within this ...
+    accept_angle: float = math.radians(10.0)  # [rad] ... and facing the user within this
+    timeout: float = 25.0  # [s]
+
+
+@dataclass
+class AlignStep:
+    v: float = 0.0  # [m/s]
+    w: float = 0.0  # [rad/s]
+    done: bool = False
+    ok: bool = False
+    why: str = ""
+
+
+def _profile(remaining, top, bottom, decel):
+    return math.copysign(min(top, max(bottom, math.sqrt(2.0 * decel * abs(remaining)))), remaining)
+
+
+class Align:
+    """Turn to face the user, drive to safe_distance, face them again; stepped at the control rate
+    with the robot's odometry pose and the user's position in the same frame."""
+
+    def __init__(self, p, now):
+        self.p = p
+        self.phase = "turn"
+        self.started = now
+        self.blocked = ""
+        self.sign = 0.0  # direction of the turn or move under way (crossing the target ends it)
+
+    @staticmethod
+    def geometry(robot, user):
+        """(distance [m], facing error [rad]) of a robot pose (x, y, yaw) to a user (x, y)."""
+        dx, dy = user[0] - robot[0], user[1] - robot[1]
+        return math.hypot(dx, dy), angles.diff(math.atan2(dy, dx), robot[2])
+
+    def update(self, now, robot, speed, user, front_free=math.inf, back_free=math.inf):
+        """``robot`` (x, y, yaw) and ``speed`` (v [m/s], w [rad/s]) from odometry; ``user`` (x, y) in
+        the odometry frame; ``front_free`` [m]: free space ahead of the nose (laser); ``back_free``
+        [m]: free space behind the robot (map)."""
+        p = self.p
+        distance, error = self.geometry(robot, user)
+        at_rest = abs(speed[0]) < p.still_rate and abs(speed[1]) < p.still_rate
+        if now - self.started > p.timeout:
+            return self._finish(distance, error, f"alignment took longer than {p.timeout:.0f} s")
+        if self.phase in ("turn", "turn_again"):
+            crossed = self.sign * error < 0 and abs(error) <= p.angle_overshoot  # turned past: no way back
+            if abs(error) > p.angle_tolerance and not crossed:
+                self.sign = math.copysign(1.0, error)
+                ahead = error - speed[1] * p.lead  # where the turn will be when a command takes effect
+                w = _profile(ahead, p.max_turn, p.min_turn, p.turn_decel) if ahead * error > 0 else 0.0
+                return AlignStep(w=w)
+            if not at_rest:
+                return AlignStep()
+            if self.phase == "turn_again":
+                return self._finish(distance, error)
+            self.phase, self.sign = "move", 0.0
+        if self.phase == "move":
+            remaining = distance - p.safe_distance
+            free = front_free - p.front_margin if remaining > 0 else back_free - p.back_margin
+            crossed = self.sign * remaining < 0 and abs(remaining) <= p.distance_overshoot
+            if abs(remaining) <= p.distance_tolerance or free <= 0.0 or crossed:
+                if free <= 0.0 and abs(remaining) > p.distance_tolerance:
+                    self.blocked = "blocked ahead" if remaining > 0 else "no room behind"
+                self.phase, self.sign = "turn_again", 0.0
+                return AlignStep()
+            self.sign = math.copysign(1.0, remaining)
+            go = math.copysign(min(abs(remaining), max(free, 0.0)), remaining)
+            ahead = go - speed[0] * p.lead  # the measured speed carries the robot on before a command acts
+            v = _profile(ahead, p.max_speed, p.min_speed, p.accel) if ahead * go > 0 else 0.0
+            w = max(-p.max_turn, min(p.max_turn, 1.5 * error))
+            return AlignStep(v=v, w=w)
+        raise AssertionError(f"unknown phase {self.phase}")
+
+    def _finish(self, distance, error, why=""):
+        p = self.p
+        ok = not why and abs(distance - p.safe_distance) <= p.accept_distance and abs(error) <= p.accept_angle
+        text = why or (f"{distance:.2f} m from the user, facing them within {math.degrees(abs(error)):.0f} deg"
+                       + (f" ({self.blocked})" if self.blocked else ""))
+        return AlignStep(done=True, ok=ok, why=text)

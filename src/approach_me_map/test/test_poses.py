@@ -1,0 +1,167 @@
+"""approach_me_map's poses (ranked candidates around the user) and the last half metre (Align)
+against a kinematic robot."""
+
+import math
+
+import numpy as np
+import pytest
+from approach_me_map.poses import Align, AlignParams, ApproachParams, ObstacleGrid, rank
+
+from florence_common import angles
+
+pytestmark = pytest.mark.unit
+
+P = ApproachParams()
+
+
+def room(walls=(), size=(8.0, 8.0), resolution=0.05):
+    """An empty square room [0, size] with its outer wall, plus ``walls`` (x0, y0, x1, y1) boxes [m]."""
+    h, w = round(size[1] / resolution), round(size[0] / resolution)
+    data = np.zeros((h, w), dtype=int)
+    data[[0, -1], :] = data[:, [0, -1]] = 100
+    for x0, y0, x1, y1 in walls:
+        data[round(y0 / resolution):round(y1 / resolution), round(x0 / resolution):round(x1 / resolution)] = 100
+    return ObstacleGrid(data, (0.0, 0.0, 0.0), resolution)
+
+
+def test_open_space_front_left_or_front_right_on_the_robots_side():
+    user, robot = (4.0, 4.0), (4.0, 1.0)  # the robot south of the user
+    ranked = rank(user, robot, P, room())
+    best = ranked[0]
+    assert math.hypot(best.x - user[0], best.y - user[1]) == pytest.approx(P.safe_distance)
+    assert abs(math.degrees(best.offset)) == pytest.approx(30.0)
+    assert best.offset < 0  # the person's right, if they face the robot
+    assert abs(math.degrees(ranked[1].offset)) == pytest.approx(30.0)  # then the left
+    # facing the user
+    assert abs(angles.diff(math.atan2(user[1] - best.y, user[0] - best.x), best.yaw)) < 1e-9
+    # head-on before the sides, the far side last
+    order = [round(abs(math.degrees(c.offset))) for c in ranked]
+    assert order.index(0) < order.index(90) < order.index(180)
+    assert all(abs(math.degrees(c.offset)) > 90 for c in ranked[-9:])
+
+
+def test_a_wall_beside_the_user_leaves_the_other_side():
+    user, robot = (4.0, 4.0), (4.0, 1.0)
+    # a wall 0.35 m to the user's east (x 4.35 .. 4.5): the south-east poses lack clearance
+    ranked = rank(user, robot, P, room(walls=[(4.35, 0.0, 4.5, 8.0)]))
+    best = ranked[0]
+    assert best.x < user[0] and best.clearance >= P.min_clearance
+    assert all(c.x < 4.35 - P.min_clearance + 0.05 for c in ranked)  # clearance is measured between cells
+
+
+def test_no_pose_across_a_wall():
+    """A user just north of a wall, the robot south of it: the poses south of the wall are free and near the
+    robot, but they see the user only through the wall."""
+    user, robot = (4.0, 4.3), (4.0, 2.0)
+    ranked = rank(user, robot, P, room(walls=[(0.0, 3.95, 3.0, 4.05), (5.0, 3.95, 8.0, 4.05), (3.0, 3.95, 5.0, 4.05)]))
+    assert ranked and all(c.y > 4.05 for c in ranked)
+    assert abs(math.degrees(ranked[0].offset)) >= 90 - 1e-9  # only the sides and the far side are left
+
+
+def test_tried_angles_are_left_out():
+    user, robot = (4.0, 4.0), (4.0, 1.0)
+    first = rank(user, robot, P, room())[0]
+    second = rank(user, robot, P, room(), exclude=[first.angle])[0]
+    assert abs(angles.diff(second.angle, first.angle)) >= P.trial_separation - 1e-9
+    third = rank(user, robot, P, room(), exclude=[first.angle, second.angle])[0]
+    assert min(abs(angles.diff(third.angle, a)) for a in (first.angle, second.angle)) >= P.trial_separation - 1e-9
+
+
+def test_a_user_boxed_in_gets_no_pose():
+    user = (4.0, 4.0)
+    walls = [(3.5, 3.5, 4.6, 3.7), (3.5, 4.3, 4.6, 4.5), (3.5, 3.5, 3.7, 4.5), (4.3, 3.5, 4.5, 4.5)]
+    assert rank(user, (1.0, 1.0), P, room(walls=walls)) == []
+
+
+def test_without_a_map_every_pose_is_free():
+    assert len(rank((0.0, 0.0), (1.0, 0.0), P, None)) == 24
+
+
+# --- the last half metre -------------------------------------------------------------------------------------
+class Robot:
+    """A unicycle that follows commands through acceleration limits (velocity_filter: 1 m/s^2, 1 rad/s^2),
+    ``latency`` [s] late."""
+
+    def __init__(self, x, y, yaw, latency=0.0):
+        self.x, self.y, self.yaw, self.v, self.w = x, y, yaw, 0.0, 0.0
+        self.queue = [(0.0, 0.0)] * round(latency / 0.05)
+        self.turned = 0.0
+
+    def step(self, v, w, dt):
+        self.queue.append((v, w))
+        v, w = self.queue.pop(0)
+        self.turned += abs(self.w) * dt
+        self.v += max(-dt, min(dt, v - self.v))
+        self.w += max(-dt, min(dt, w - self.w))
+        self.yaw = float(angles.wrap(self.yaw + self.w * dt))
+        self.x += self.v * math.cos(self.yaw) * dt
+        self.y += self.v * math.sin(self.yaw) * dt
+
+
+def align(robot, user, front_free=None, back_free=None, t_max=40.0):
+    a, t, dt, nearest = Align(AlignParams(), 0.0), 0.0, 0.05, math.inf
+    while t < t_max:
+        free = math.inf if front_free is None else front_free(robot)
+        back = math.inf if back_free is None else back_free(robot)
+        step = a.update(t, (robot.x, robot.y, robot.yaw), (robot.v, robot.w), user, free, back)
+        nearest = min(nearest, math.hypot(robot.x - user[0], robot.y - user[1]))
+        if step.done:
+            return step, nearest
+        robot.step(step.v, step.w, dt)
+        t += dt
+    raise AssertionError("Align did not finish")
+
+
+@pytest.mark.parametrize("start", [(0.75, -0.1, 2.5), (0.3, 0.25, -1.0), (-0.62, 0.2, 0.0), (0.0, 0.68, 0.3)])
+def test_align_ends_at_safe_distance_facing_the_user(start):
+    user = (0.0, 0.0)
+    robot = Robot(*start)
+    step, nearest = align(robot, user)
+    distance, error = Align.geometry((robot.x, robot.y, robot.yaw), user)
+    assert step.ok, step.why
+    assert distance == pytest.approx(0.5, abs=0.04)
+    assert abs(error) < math.radians(3)
+    assert nearest >= min(0.45, math.hypot(start[0], start[1]) - 0.01)  # never nearer than personal space
+
+
+def test_align_with_a_late_robot_does_not_oscillate():
+    """Commands acting 0.4 s late: the turns and the move end when they cross their target, no way back."""
+    user = (0.0, 0.0)
+    robot = Robot(0.7, 0.2, 2.0, latency=0.4)
+    _, first_error = Align.geometry((robot.x, robot.y, robot.yaw), user)
+    step, nearest = align(robot, user)
+    distance, error = Align.geometry((robot.x, robot.y, robot.yaw), user)
+    assert step.ok, step.why
+    assert distance == pytest.approx(0.5, abs=0.08) and abs(error) < math.radians(8)
+    assert robot.turned < abs(first_error) + math.radians(10)  # no turning back and forth
+    assert nearest > 0.42
+
+
+def test_align_stops_short_of_an_obstacle_ahead():
+    """The laser shows something 0.1 m ahead of the nose when the robot is 0.8 m away: it drives up to the
+    front margin (0.05 m) and says it could not get closer."""
+    user = (0.0, 0.0)
+    robot = Robot(0.8, 0.0, math.pi)
+
+    def front_free(r):
+        return math.hypot(r.x, r.y) - 0.7  # [m] free beyond the nose: an obstacle along the way
+
+    step, nearest = align(robot, user, front_free=front_free)
+    assert not step.ok and "blocked ahead" in step.why
+    assert 0.73 < nearest < 0.77
+
+
+def test_align_backs_up_only_as_far_as_the_map_allows():
+    user = (0.0, 0.0)
+    robot = Robot(0.3, 0.0, math.pi)
+    step, _ = align(robot, user, back_free=lambda r: 0.1 - (math.hypot(r.x, r.y) - 0.3))  # 0.1 m behind at the start
+    distance, _ = Align.geometry((robot.x, robot.y, robot.yaw), user)
+    assert not step.ok and "no room behind" in step.why
+    assert distance == pytest.approx(0.35, abs=0.02)
+
+
+def test_align_times_out():
+    robot = Robot(2.0, 0.0, 0.0)
+    a = Align(AlignParams(timeout=1.0), 0.0)
+    step = a.update(1.5, (robot.x, robot.y, robot.yaw), (0.0, 0.0), (0.0, 0.0))
+    assert step.done and not step.ok and "longer than 1 s" in step.why

@@ -1,0 +1,56 @@
+"""Occupancy grids in the map frame (map_server's values: 0..100 occupancy, -1 unknown; row 0 at
+the origin): which cell a point falls in, whether it is an obstacle, how far the nearest one is.
+
+    grid = Grid(data, origin=(x0, y0, yaw0), resolution=0.05)
+    grid.blocked_at([[1.0, 2.0]])      # [True] inside an occupied or unknown cell, or off the grid
+    grid.clearance_at([[1.0, 2.0]])    # [m] from the cell's centre to the nearest blocked cell
+"""
+
+import math
+
+import numpy as np
+from scipy import ndimage
+
+
+class Grid:
+    """``data`` (H, W) ints; ``origin`` (x [m], y [m], yaw [rad]) of cell (0, 0)'s corner;
+    ``resolution`` [m/cell]; cells with occupancy >= ``occupied`` or unknown (< 0) are blocked."""
+
+    def __init__(self, data, origin, resolution, occupied=65):
+        self.data = np.asarray(data)
+        self.origin = tuple(float(v) for v in origin)
+        self.resolution = float(resolution)
+        self.occupied = occupied
+        self.blocked = (self.data >= occupied) | (self.data < 0)
+        self._clearance = None
+
+    @property
+    def clearance(self):
+        """[m] from every cell's centre to the nearest blocked cell (computed on first use)."""
+        if self._clearance is None:
+            self._clearance = ndimage.distance_transform_edt(~self.blocked) * self.resolution
+        return self._clearance
+
+    def cells(self, xy):
+        """(rows, cols, inside) of points [N, 2] in the map frame (rows and cols clipped to the grid)."""
+        ox, oy, oyaw = self.origin
+        pts = np.asarray(xy, dtype=float).reshape(-1, 2) - (ox, oy)
+        c, s = math.cos(oyaw), math.sin(oyaw)
+        with np.errstate(invalid="ignore"):
+            u = np.floor((c * pts[:, 0] + s * pts[:, 1]) / self.resolution)
+            v = np.floor((-s * pts[:, 0] + c * pts[:, 1]) / self.resolution)
+        h, w = self.blocked.shape
+        inside = np.isfinite(u) & np.isfinite(v) & (v >= 0) & (v < h) & (u >= 0) & (u < w)
+        rows = np.clip(np.nan_to_num(v, nan=0.0), 0, h - 1).astype(int)
+        cols = np.clip(np.nan_to_num(u, nan=0.0), 0, w - 1).astype(int)
+        return rows, cols, inside
+
+    def blocked_at(self, xy):
+        """bool [N]: the points [N, 2] fall in a blocked cell or off the grid."""
+        rows, cols, inside = self.cells(xy)
+        return ~inside | self.blocked[rows, cols]
+
+    def clearance_at(self, xy):
+        """[m] at points [N, 2] (0 off the grid)."""
+        rows, cols, inside = self.cells(xy)
+        return np.where(inside, self.clearance[rows, cols], 0.0)

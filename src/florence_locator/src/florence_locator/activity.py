@@ -1,0 +1,341 @@
+"""What florenceLocator is doing, without ROS: the go-to activities, gotoUser's phases, the
+user's position, manualOverride.
+
+The node feeds events in (calls, move_base's answers, detect_users' and approach_me_map's status,
+detections, the clock) and carries out the :class:`Command` list each one returns:
+
+- ``send_goal(x, y, phi)``: a move_base goal for the current activity (its done callback comes
+  back as :meth:`Locator.goal_done` with the activity's id);
+- ``cancel_goals``: cancel every move_base goal (manualOverride);
+- ``cancel_goal``: cancel the locator's own move_base goal;
+- ``search(on)``: ``/detect_user/cmd`` true (start the search) or false (stop it);
+- ``stop_approach``: ``/detected_user`` with command false (approach_me_map stops).
+
+Status (getStatus) uses actionlib's goal state names for the current or last activity:
+PENDING (accepted, move_base has not started it), ACTIVE, SUCCEEDED, ABORTED, PREEMPTED (a new
+go-to replaced it, or another move_base client took over), REJECTED / RECALLED (move_base's
+answer, relayed), and LOST before any activity (as SimpleActionClient.get_state() without a
+goal). gotoUser is ACTIVE through its phases:
+
+1. ``navigate``: to the hotspot of the room where the user was last known (skipped when the
+   robot is in that room already, or when the user's room is unknown). A failed leg that still
+   ends in the user's room goes on with the search;
+2. ``search``: detect_users turns in 45 degree steps (its status ACTIVE, then either a
+   ``/detected_user`` or ABORTED after a full turn);
+3. ``approach``: approach_me_map goes to a polite pose near the user (ACTIVE, then SUCCEEDED or
+   ABORTED), which ends gotoUser with the same state.
+
+A phase whose node stops sending its status for ``heartbeat_timeout`` [s], or that runs longer
+than its timeout, ends gotoUser ABORTED with the reason.
+"""
+
+import logging
+import math
+from dataclasses import dataclass, field
+
+from florence_locator.places import UNKNOWN, Pose, check_label
+
+log = logging.getLogger(__name__)
+
+PENDING, ACTIVE, PREEMPTED, SUCCEEDED, ABORTED, REJECTED, RECALLED, LOST = (
+    "PENDING", "ACTIVE", "PREEMPTED", "SUCCEEDED", "ABORTED", "REJECTED", "RECALLED", "LOST")
+RUNNING = (PENDING, ACTIVE)
+GOTO_ROOM, GOTO_XYPHI, GOTO_USER = "gotoRoom", "gotoXYPhi", "gotoUser"
+NAVIGATE, SEARCH, APPROACH = "navigate", "search", "approach"
+PHASE_NODE = {SEARCH: "detect_users", APPROACH: "approach_me_map"}
+
+
+@dataclass(frozen=True)
+class Command:
+    name: str  # send_goal, cancel_goal, cancel_goals, search, stop_approach
+    args: tuple = ()
+    activity: int = 0  # id of the activity it belongs to
+
+
+@dataclass(frozen=True)
+class Timeouts:
+    heartbeat: float = 5.0  # [s] a phase's node silent this long has failed
+    search: float = 180.0  # [s] longest search
+    approach: float = 240.0  # [s] longest approach
+
+
+@dataclass
+class Activity:
+    id: int
+    kind: str
+    target: str  # what it goes to, in words
+    state: str = PENDING
+    text: str = ""
+    phase: str = ""  # gotoUser only
+    room: str = ""  # gotoUser: the room it goes to search in
+    started: float = 0.0  # [s]
+    phase_started: float = 0.0
+    heard: float = 0.0  # [s] the phase's node last sent a status
+    notes: list = field(default_factory=list)
+
+    def describe(self):
+        phase = f" [{self.phase}]" if self.phase and self.state in RUNNING else ""
+        notes = "".join(f"; {n}" for n in self.notes)
+        return f"{self.kind} {self.target}{phase}: {self.text}{notes}"
+
+
+class Locator:
+    """The locator's state. Every method takes the time ``now`` [s] where timing matters and
+    returns what the node must do (a list of :class:`Command`); calls also return (ok, message)."""
+
+    def __init__(self, rooms, hotspots, floor=None, timeouts=None, hotspot_clearance=0.15, sighting_margin=0.5,
+                 sighting_clearance=0.25):
+        self.rooms, self.hotspots = rooms, hotspots
+        self.floor = floor  # places.FloorMap, or None until the map comes
+        self.timeouts = timeouts or Timeouts()
+        self.hotspot_clearance = hotspot_clearance  # [m] a hotspot must be this far from obstacles
+        # [m] a person seen on the way counts this far inside the user's room and from the map's obstacles (the
+        # tracker's ghosts sit on door frames and furniture edges: 0.14 m from a door frame in florence_sim)
+        self.sighting_margin, self.sighting_clearance = sighting_margin, sighting_clearance
+        self.user = None  # Pose of the user, None until some sensor says where
+        self.user_source = ""
+        self.override = False
+        self.activity = None
+        self.last_goal = None  # Pose of the most recent navigation goal
+        self._next_id = 1
+
+    # --- queries ------------------------------------------------------------------------------------------
+    def status(self):
+        """(state name, text) of the current or last activity."""
+        if self.activity is None:
+            return LOST, "no activity yet"
+        return self.activity.state, self.activity.describe()
+
+    def room_of(self, pose):
+        return UNKNOWN if pose is None else self.rooms.room_at(pose.x, pose.y)
+
+    def running(self):
+        return self.activity is not None and self.activity.state in RUNNING
+
+    # --- the user -------------------------------------------------------------------------------------------
+    def set_user_xyphi(self, pose, source="setUserPosXYPhi"):
+        self.user, self.user_source = pose, source
+        return True, f"user at ({pose.x:.2f}, {pose.y:.2f}, {pose.phi:.2f}) in {self.room_of(pose)}"
+
+    def set_user_room(self, label):
+        """Seed 3.8.1: the user's pose becomes the room's hotspot unless it is in that room already."""
+        try:
+            name = check_label(label)
+        except ValueError as exc:
+            return False, str(exc)
+        if name not in self.rooms.polygons:
+            return False, f"unknown room '{name}' (rooms: {', '.join(self.rooms.labels())})"
+        spot = self.hotspots.get(name)
+        if spot is None:
+            return False, f"room '{name}' has no hotspot to place the user at (setHotspot first)"
+        if self.user is not None and self.room_of(self.user) == name:
+            return True, f"the user is in {name} already, at ({self.user.x:.2f}, {self.user.y:.2f}): kept"
+        self.user, self.user_source = spot, f"setUserPosRoom({name})"
+        return True, f"user placed at the hotspot of {name} ({spot.x:.2f}, {spot.y:.2f})"
+
+    def detected(self, x, y, now):
+        """detect_users found the user at (x, y) [m, map]: the user's position, and gotoUser's
+        search phase gives way to the approach. The heading is kept (the tracker does not say
+        which way a person faces)."""
+        if not (math.isfinite(x) and math.isfinite(y)):
+            return []
+        phi = self.user.phi if self.user is not None else 0.0
+        self.user, self.user_source = Pose(float(x), float(y), phi), "detect_users"
+        a = self.activity
+        if a is not None and a.kind == GOTO_USER and a.state in RUNNING and a.phase == SEARCH:
+            self._phase(a, APPROACH, now, f"found the user at ({x:.2f}, {y:.2f}); approaching (approach_me_map)")
+        return []
+
+    # --- hotspots -------------------------------------------------------------------------------------------
+    def check_place(self, pose, what):
+        """None, or why the robot cannot go to (or stand at) ``pose`` by the map."""
+        if self.floor is None:
+            return None
+        problem = self.floor.problem(pose.x, pose.y, self.hotspot_clearance)
+        return None if problem is None else f"{what}: {problem}"
+
+    # --- go-to calls -------------------------------------------------------------------------------------------
+    def _refusal(self):
+        if self.override:
+            return "manual override is on (/florenceLocator/manualOverride true): no navigation until it is false"
+        return None
+
+    def _start(self, kind, target, now, sends_goal):
+        """A new activity; the running one (if any) is preempted (its move_base goal cancelled unless
+        the new activity sends one, which replaces it). Returns (activity, commands)."""
+        commands = []
+        old = self.activity
+        if old is not None and old.state in RUNNING:
+            commands += self._end(old, PREEMPTED, f"replaced by {kind} {target}", cancel_goal=not sends_goal)
+        a = Activity(self._next_id, kind, target, started=now, phase_started=now, heard=now)
+        self._next_id += 1
+        self.activity = a
+        return a, commands
+
+    def goto_pose(self, kind, target, pose, now):
+        refusal = self._refusal() or self.check_place(pose, f"{kind} {target}")
+        if refusal:
+            return False, refusal, []
+        a, commands = self._start(kind, target, now, sends_goal=True)
+        a.text = f"going to ({pose.x:.2f}, {pose.y:.2f}, {pose.phi:.2f})"
+        self.last_goal = pose
+        return True, f"accepted: {a.text}", [*commands, Command("send_goal", pose.as_tuple(), a.id)]
+
+    def goto_room(self, label, now):
+        try:
+            name = check_label(label)
+        except ValueError as exc:
+            return False, f"gotoRoom: {exc}", []
+        spot = self.hotspots.get(name)
+        if spot is None:
+            known = sorted(set(self.hotspots.labels()))
+            why = "has no hotspot" if name in self.rooms.polygons else "is not a known room or hotspot"
+            return False, f"gotoRoom: '{name}' {why} (hotspots: {', '.join(known)})", []
+        return self.goto_pose(GOTO_ROOM, name, spot, now)
+
+    def goto_xyphi(self, pose, now):
+        return self.goto_pose(GOTO_XYPHI, f"({pose.x:.2f}, {pose.y:.2f}, {pose.phi:.2f})", pose, now)
+
+    def goto_user(self, robot, now):
+        """``robot``: the robot's Pose on the map, or None when tf does not know it."""
+        refusal = self._refusal()
+        if refusal:
+            return False, refusal, []
+        user_room = self.room_of(self.user)
+        spot = self.hotspots.get(user_room) if user_room != UNKNOWN else None
+        if self.user is not None and user_room != UNKNOWN and spot is None:
+            return False, f"gotoUser: the user's room '{user_room}' has no hotspot to search from (setHotspot)", []
+        robot_room = self.room_of(robot) if robot is not None else None
+        navigate = self.user is not None and user_room not in (UNKNOWN, robot_room)
+        a, commands = self._start(GOTO_USER, "the user", now, sends_goal=navigate)
+        a.room = user_room
+        if self.user is None or user_room == UNKNOWN:
+            where = "not known" if self.user is None else f"outside every room ({self.user.x:.2f}, {self.user.y:.2f})"
+            a.notes.append(f"the user's position is {where}: searching from here")
+            commands += self._phase(a, SEARCH, now, "searching for the user here (detect_users)")
+        elif not navigate:
+            a.notes.append(f"already in {user_room}: no drive to its hotspot")
+            commands += self._phase(a, SEARCH, now, f"searching for the user in {user_room} (detect_users)")
+        else:
+            a.phase, a.phase_started = NAVIGATE, now
+            a.text = f"going to the hotspot of {user_room}, where the user was last known"
+            self.last_goal = spot
+            commands.append(Command("send_goal", spot.as_tuple(), a.id))
+        return True, f"accepted: {a.text}" + "".join(f"; {n}" for n in a.notes), commands
+
+    # --- events -------------------------------------------------------------------------------------------
+    def goal_active(self, activity_id):
+        a = self.activity
+        if a is not None and a.id == activity_id and a.state == PENDING:
+            a.state = ACTIVE
+
+    def goal_done(self, activity_id, state, text, robot, now):
+        """move_base ended the goal of activity ``activity_id`` in ``state`` (a name) with ``text``."""
+        a = self.activity
+        if a is None or a.id != activity_id or a.state not in RUNNING:
+            return []
+        text = text or "no text"
+        if a.kind != GOTO_USER:
+            if state == SUCCEEDED:
+                words = f"arrived (move_base: {text})"
+            elif state == PREEMPTED:
+                words = f"another move_base client replaced the goal (move_base: {text})"
+            else:
+                words = f"move_base {state}: {text}"
+            return self._end(a, state, words, cancel_goal=False)
+        if a.phase != NAVIGATE:
+            return []
+        if state == SUCCEEDED:
+            return self._phase(a, SEARCH, now, f"at the hotspot of {a.room}; searching for the user (detect_users)")
+        if robot is not None and self.room_of(robot) == a.room:
+            a.notes.append(f"the hotspot was not reached ({state}: {text}), but the robot is in {a.room}")
+            return self._phase(a, SEARCH, now, f"searching for the user in {a.room} (detect_users)")
+        return self._end(a, ABORTED, f"could not reach {a.room} to search for the user: move_base {state}: {text}",
+                         cancel_goal=False)
+
+    def sighted(self, x, y, now):
+        """The tracker reports somebody at (x, y) [m, map] near the robot. While gotoUser drives to the
+        user's room and the person is in that room, the drive ends here and the search begins: the
+        search's first look finds the person the tracker holds, and the robot neither drives up to
+        someone standing by the hotspot nor ends too near them for the Kinect to see."""
+        a = self.activity
+        if (a is None or a.kind != GOTO_USER or a.state not in RUNNING or a.phase != NAVIGATE
+                or self.rooms.room_at(x, y) != a.room):
+            return []
+        if self.floor is not None and (self.floor.problem(x, y, self.sighting_clearance) is not None
+                                       or self.floor.depth_inside(self.rooms.polygons[a.room], x, y)
+                                       < self.sighting_margin):
+            return []
+        a.notes.append(f"saw somebody at ({x:.2f}, {y:.2f}) in {a.room} on the way: searching from there")
+        return [Command("cancel_goal", (), a.id), *self._phase(a, SEARCH, now, f"searching for the user in {a.room} "
+                                                               "(detect_users)")]
+
+    def phase_status(self, status, now):
+        """A message on /approach_user/status (detect_users' or approach_me_map's)."""
+        a = self.activity
+        if a is None or a.kind != GOTO_USER or a.state not in RUNNING or a.phase not in (SEARCH, APPROACH):
+            return []
+        status = status.strip().upper()
+        if status == ACTIVE:
+            a.heard = now
+            return []
+        if a.phase == SEARCH and status == ABORTED:
+            return self._end(a, ABORTED, "detect_users found nobody in a full turn (or could not use the tracker; "
+                             "see its log)")
+        if a.phase == APPROACH and status == SUCCEEDED:
+            u = self.user
+            return self._end(a, SUCCEEDED, f"beside the user at ({u.x:.2f}, {u.y:.2f}) (approach_me_map)")
+        if a.phase == APPROACH and status == ABORTED:
+            u = self.user
+            return self._end(a, ABORTED, f"approach_me_map could not reach a polite pose near the user at "
+                             f"({u.x:.2f}, {u.y:.2f})")
+        return []  # PREEMPTED and the like: answers to our own cancels
+
+    def set_override(self, on, now):
+        """manualOverride: true aborts whatever runs (every move_base goal, the search, the approach)."""
+        self.override = bool(on)
+        if not on:
+            return []
+        commands = [Command("cancel_goals"), Command("search", (False,)), Command("stop_approach")]
+        a = self.activity
+        if a is not None and a.state in RUNNING:
+            self._end(a, ABORTED, "manual override (/florenceLocator/manualOverride true)", cancel_goal=False)
+        return commands
+
+    def tick(self, now):
+        """Timeouts of gotoUser's search and approach phases."""
+        a = self.activity
+        if a is None or a.kind != GOTO_USER or a.state not in RUNNING or a.phase not in (SEARCH, APPROACH):
+            return []
+        node = PHASE_NODE[a.phase]
+        if now - a.heard > self.timeouts.heartbeat:
+            return self._end(a, ABORTED, f"{node} sent no status for {now - a.heard:.1f} s: is it running?")
+        limit = self.timeouts.search if a.phase == SEARCH else self.timeouts.approach
+        if now - a.phase_started > limit:
+            return self._end(a, ABORTED, f"the {a.phase} phase ({node}) took longer than {limit:.0f} s")
+        return []
+
+    def cancel(self, reason, now):
+        """End the running activity ABORTED (a node shutting down)."""
+        a = self.activity
+        if a is None or a.state not in RUNNING:
+            return []
+        return self._end(a, ABORTED, reason)
+
+    # --- helpers -------------------------------------------------------------------------------------------
+    def _phase(self, a, phase, now, text):
+        a.phase, a.phase_started, a.heard, a.state, a.text = phase, now, now, ACTIVE, text
+        return [Command("search", (True,), a.id)] if phase == SEARCH else []
+
+    def _end(self, a, state, text, cancel_goal=True):
+        a.state, a.text = state, text
+        log.info("%s", a.describe())
+        commands = []
+        if a.kind == GOTO_USER and state != SUCCEEDED:
+            if a.phase == SEARCH:
+                commands.append(Command("search", (False,), a.id))
+            if a.phase == APPROACH:
+                commands.append(Command("stop_approach", (), a.id))
+        if cancel_goal and a.phase in ("", NAVIGATE) and state != SUCCEEDED:
+            commands.append(Command("cancel_goal", (), a.id))
+        return commands

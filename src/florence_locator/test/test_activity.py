@@ -1,0 +1,279 @@
+"""The locator's state (florence_locator.activity) without ROS: go-to activities and their states,
+gotoUser's phases, timeouts, manualOverride, and the user's position (seed 3.8.1)."""
+
+import math
+
+import pytest
+from florence_locator.activity import (
+    ABORTED,
+    ACTIVE,
+    APPROACH,
+    LOST,
+    NAVIGATE,
+    PENDING,
+    PREEMPTED,
+    SEARCH,
+    SUCCEEDED,
+    Locator,
+    Timeouts,
+)
+from florence_locator.places import Hotspots, Pose, Rooms
+
+from florence_common.maps import map_file
+
+pytestmark = pytest.mark.unit
+
+KITCHEN = Pose(6.3, 2.5, 0.0)
+LIVING = Pose(1.2, 3.0, 0.0)
+
+
+@pytest.fixture
+def loc():
+    rooms = Rooms.load(map_file("apartment", "rooms.yaml"))
+    return Locator(rooms, Hotspots(rooms.hotspots), timeouts=Timeouts(heartbeat=5.0, search=60.0, approach=90.0))
+
+
+def names(commands):
+    return [(c.name, *c.args) for c in commands]
+
+
+def test_no_activity_is_lost(loc):
+    assert loc.status() == (LOST, "no activity yet")
+
+
+def test_goto_room_relays_move_base(loc):
+    ok, message, commands = loc.goto_room("kitchen", 0.0)
+    assert ok and "accepted" in message
+    assert names(commands) == [("send_goal", 6.3, 2.5, 0.0)]
+    aid = commands[0].activity
+    assert loc.status()[0] == PENDING
+    loc.goal_active(aid)
+    assert loc.status()[0] == ACTIVE
+    assert loc.goal_done(aid, SUCCEEDED, "Goal reached.", KITCHEN, 10.0) == []
+    state, text = loc.status()
+    assert state == SUCCEEDED and "arrived" in text and "kitchen" in text
+    assert loc.last_goal == KITCHEN
+
+
+@pytest.mark.parametrize("state", [ABORTED, "REJECTED", "RECALLED", "LOST"])
+def test_goto_room_failures_keep_move_base_state_and_text(loc, state):
+    _, _, commands = loc.goto_room("bedroom", 0.0)
+    loc.goal_done(commands[0].activity, state, "no valid plan", None, 3.0)
+    assert loc.status()[0] == state and "no valid plan" in loc.status()[1]
+
+
+@pytest.mark.parametrize("label, words", [("garage", "not a known room or hotspot"), ("", "empty"),
+                                          ("unknown", "outside every room")])
+def test_goto_room_refuses_unknown_labels(loc, label, words):
+    ok, message, commands = loc.goto_room(label, 0.0)
+    assert not ok and words in message and commands == []
+    assert loc.status()[0] == LOST  # nothing started
+
+
+def test_a_new_goto_preempts_the_running_one_and_stale_answers_are_ignored(loc):
+    _, _, first = loc.goto_room("kitchen", 0.0)
+    ok, _, second = loc.goto_xyphi(Pose(2.0, 2.0, 1.0), 1.0)
+    assert ok and names(second) == [("send_goal", 2.0, 2.0, 1.0)]  # the new goal replaces the old in move_base
+    old, new = first[0].activity, second[0].activity
+    assert old != new
+    loc.goal_done(old, PREEMPTED, "preempted", None, 1.1)  # the old goal's end: not the new one's
+    assert loc.status()[0] == PENDING
+    loc.goal_done(new, SUCCEEDED, "", None, 5.0)
+    assert loc.status()[0] == SUCCEEDED
+
+
+def test_a_goal_preempted_by_another_client(loc):
+    _, _, commands = loc.goto_room("kitchen", 0.0)
+    loc.goal_done(commands[0].activity, PREEMPTED, "", None, 2.0)
+    assert loc.status()[0] == PREEMPTED and "another move_base client" in loc.status()[1]
+
+
+def test_goto_xyphi_checks_the_map(loc):
+    import numpy as np
+    from florence_locator.places import FloorMap
+
+    data = np.zeros((100, 100), dtype=int)
+    data[:, 50] = 100
+    loc.floor = FloorMap(data, (0.0, 0.0, 0.0), 0.05)
+    ok, message, _ = loc.goto_xyphi(Pose(2.52, 1.0, 0.0), 0.0)
+    assert not ok and "inside a wall" in message
+    ok, message, _ = loc.goto_xyphi(Pose(20.0, 1.0, 0.0), 0.0)
+    assert not ok and "off the map" in message
+    assert loc.goto_xyphi(Pose(1.0, 1.0, 0.0), 0.0)[0]
+
+
+# --- gotoUser --------------------------------------------------------------------------------------------------------
+def run_to_search(loc, robot=KITCHEN, user=None):
+    loc.set_user_xyphi(user or Pose(2.0, 2.0, 0.0))
+    ok, message, commands = loc.goto_user(robot, 0.0)
+    assert ok, message
+    return commands
+
+
+def test_goto_user_drives_searches_and_approaches(loc):
+    commands = run_to_search(loc)
+    assert names(commands) == [("send_goal", 1.2, 3.0, 0.0)]  # the living room's hotspot
+    aid = commands[0].activity
+    assert loc.activity.phase == NAVIGATE
+    loc.goal_active(aid)
+    assert loc.status()[0] == ACTIVE
+    after = loc.goal_done(aid, SUCCEEDED, "", LIVING, 20.0)
+    assert names(after) == [("search", True)] and loc.activity.phase == SEARCH
+    loc.phase_status("ACTIVE", 21.0)
+    assert loc.detected(2.3, 1.9, 24.0) == []
+    assert loc.activity.phase == APPROACH and loc.user == Pose(2.3, 1.9, 0.0)
+    assert "found the user at (2.30, 1.90)" in loc.status()[1]
+    loc.phase_status("ACTIVE", 25.0)
+    assert loc.status()[0] == ACTIVE
+    assert loc.phase_status("SUCCEEDED", 30.0) == []
+    assert loc.status()[0] == SUCCEEDED and "beside the user" in loc.status()[1]
+
+
+def test_goto_user_skips_the_drive_when_in_the_users_room(loc):
+    commands = run_to_search(loc, robot=Pose(3.0, 4.0, 0.0))
+    assert names(commands) == [("search", True)]
+    assert loc.activity.phase == SEARCH and "already in living_room" in loc.status()[1]
+
+
+def test_goto_user_searches_here_when_nobody_said_where_the_user_is(loc):
+    ok, message, commands = loc.goto_user(KITCHEN, 0.0)
+    assert ok and "not known" in message and names(commands) == [("search", True)]
+
+
+def test_a_failed_drive_that_still_ends_in_the_room_searches(loc):
+    commands = run_to_search(loc)
+    after = loc.goal_done(commands[0].activity, ABORTED, "goal blocked", Pose(2.5, 3.0, 0.0), 20.0)
+    assert names(after) == [("search", True)]
+    assert "not reached" in loc.activity.notes[0]
+    # ... and one that ends elsewhere aborts
+    commands = run_to_search(loc)
+    assert names(commands) == [("search", False), ("send_goal", 1.2, 3.0, 0.0)]  # the first gotoUser gives way
+    after = loc.goal_done(commands[1].activity, ABORTED, "no path", KITCHEN, 20.0)
+    assert after == [] and loc.status()[0] == ABORTED and "could not reach living_room" in loc.status()[1]
+
+
+def test_somebody_seen_in_the_users_room_on_the_way_ends_the_drive(loc):
+    commands = run_to_search(loc)  # driving from the kitchen to the living room
+    aid = commands[0].activity
+    assert loc.sighted(6.0, 3.0, 5.0) == []  # somebody in the kitchen: drive on
+    assert loc.activity.phase == NAVIGATE
+    after = loc.sighted(4.0, 2.0, 6.0)  # somebody in the living room
+    assert names(after) == [("cancel_goal",), ("search", True)] and loc.activity.phase == SEARCH
+    assert "on the way" in loc.status()[1]
+    assert loc.goal_done(aid, PREEMPTED, "cancelled", None, 6.5) == []  # the cancelled drive's end: ignored
+    assert loc.sighted(4.0, 2.5, 7.0) == [] and loc.activity.phase == SEARCH
+
+
+def test_a_sighting_at_a_wall_or_a_doorway_does_not_count(loc):
+    from florence_locator.places import FloorMap
+    from map_server.mapfile import load_map
+
+    grid = load_map(map_file("apartment", "apartment.yaml"))
+    loc.floor = FloorMap(grid.data, grid.origin, grid.resolution)
+    run_to_search(loc)
+    assert loc.sighted(4.9, 2.0, 1.0) == []  # at the wall to the kitchen
+    assert loc.sighted(2.4, 5.3, 1.0) == []  # in the doorway to the corridor
+    assert loc.activity.phase == NAVIGATE
+    assert names(loc.sighted(3.0, 2.4, 2.0)) == [("cancel_goal",), ("search", True)]
+
+
+def test_nobody_found_aborts(loc):
+    commands = run_to_search(loc, robot=Pose(3.0, 4.0, 0.0))
+    assert commands
+    loc.phase_status("ACTIVE", 1.0)
+    loc.phase_status("ABORTED", 30.0)
+    assert loc.status()[0] == ABORTED and "found nobody" in loc.status()[1]
+
+
+def test_approach_failure_aborts_and_preempted_answers_are_ignored(loc):
+    run_to_search(loc, robot=Pose(3.0, 4.0, 0.0))
+    loc.detected(2.0, 2.0, 5.0)
+    loc.phase_status("PREEMPTED", 5.5)  # e.g. detect_users answering a stale cancel
+    assert loc.status()[0] == ACTIVE
+    loc.phase_status("ABORTED", 40.0)
+    assert loc.status()[0] == ABORTED and "approach_me_map could not reach" in loc.status()[1]
+
+
+@pytest.mark.parametrize("phase_node, detect", [("detect_users", False), ("approach_me_map", True)])
+def test_a_silent_phase_node_aborts_gotouser(loc, phase_node, detect):
+    run_to_search(loc, robot=Pose(3.0, 4.0, 0.0))
+    if detect:
+        loc.detected(2.0, 2.0, 1.0)
+    assert loc.tick(4.5) == []
+    loc.phase_status("ACTIVE", 4.5)
+    assert loc.tick(9.4) == []
+    commands = loc.tick(9.6)
+    assert loc.status()[0] == ABORTED and f"{phase_node} sent no status" in loc.status()[1]
+    assert names(commands) == ([("stop_approach",)] if detect else [("search", False)])
+
+
+def test_a_search_that_runs_too_long_aborts(loc):
+    run_to_search(loc, robot=Pose(3.0, 4.0, 0.0))
+    t = 0.0
+    while loc.status()[0] == ACTIVE and t < 100:
+        t += 1.0
+        loc.phase_status("ACTIVE", t)
+        loc.tick(t)
+    assert loc.status()[0] == ABORTED and "longer than 60 s" in loc.status()[1] and 60 < t < 63
+
+
+def test_goto_user_refuses_a_room_without_hotspot(loc):
+    rooms = loc.rooms
+    bare = Locator(rooms, Hotspots({"kitchen": KITCHEN}))
+    bare.set_user_xyphi(Pose(1.0, 8.0, 0.0))
+    ok, message, commands = bare.goto_user(KITCHEN, 0.0)
+    assert not ok and "bedroom" in message and "no hotspot" in message and commands == []
+
+
+def test_a_new_goto_stops_the_search(loc):
+    run_to_search(loc, robot=Pose(3.0, 4.0, 0.0))
+    ok, _, commands = loc.goto_room("kitchen", 5.0)
+    assert ok and names(commands) == [("search", False), ("send_goal", 6.3, 2.5, 0.0)]
+    # and a gotoUser that starts with a search cancels a running drive
+    _, _, commands = loc.goto_room("bedroom", 6.0)
+    loc.set_user_xyphi(Pose(1.0, 1.0, 0.0))
+    ok, _, commands = loc.goto_user(Pose(2.0, 2.0, 0.0), 7.0)
+    assert ok and names(commands) == [("cancel_goal",), ("search", True)]
+
+
+# --- manualOverride ------------------------------------------------------------------------------------------------
+def test_manual_override_aborts_and_refuses_until_false(loc):
+    run_to_search(loc, robot=Pose(3.0, 4.0, 0.0))
+    loc.detected(2.0, 2.0, 1.0)
+    commands = loc.set_override(True, 2.0)
+    assert {c.name for c in commands} == {"cancel_goals", "search", "stop_approach"}
+    assert loc.status()[0] == ABORTED and "manual override" in loc.status()[1]
+    for call in (lambda: loc.goto_room("kitchen", 3.0), lambda: loc.goto_xyphi(KITCHEN, 3.0),
+                 lambda: loc.goto_user(KITCHEN, 3.0)):
+        ok, message, commands = call()
+        assert not ok and "manual override is on" in message and commands == []
+    assert loc.set_override(False, 4.0) == []
+    assert loc.goto_room("kitchen", 5.0)[0]
+
+
+def test_manual_override_without_activity_still_stops_everything(loc):
+    assert {c.name for c in loc.set_override(True, 0.0)} == {"cancel_goals", "search", "stop_approach"}
+    assert loc.status()[0] == LOST
+
+
+# --- the user's position ------------------------------------------------------------------------------------------
+def test_set_user_pos_room_moves_the_user_only_from_another_room(loc):
+    assert loc.room_of(loc.user) == "unknown"
+    ok, message = loc.set_user_room("bedroom")
+    assert ok and loc.user == Pose(1.2, 7.6, pytest.approx(1.5707963))
+    loc.set_user_xyphi(Pose(3.0, 9.0, 0.5))  # a finer sensor: the user is by the bed
+    ok, message = loc.set_user_room("bedroom")  # a PIR in the bedroom: no news
+    assert ok and "already" in message and loc.user == Pose(3.0, 9.0, 0.5)
+    ok, _ = loc.set_user_room("kitchen")
+    assert ok and loc.user == KITCHEN
+
+
+@pytest.mark.parametrize("label, words", [("garage", "unknown room"), ("", "empty"), ("unknown", "not a place")])
+def test_set_user_pos_room_refuses_bad_labels(loc, label, words):
+    ok, message = loc.set_user_room(label)
+    assert not ok and words in message and loc.user is None
+
+
+def test_a_detection_that_is_not_finite_is_ignored(loc):
+    loc.detected(math.nan, 1.0, 0.0)
+    assert loc.user is None

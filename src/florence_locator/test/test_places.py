@@ -1,0 +1,200 @@
+"""Rooms (labelled polygons: edges, shared edges, outside every room), hotspots files and the map
+check of hotspots and goals."""
+
+import math
+
+import numpy as np
+import pytest
+from florence_locator.places import (
+    UNKNOWN,
+    FloorMap,
+    Hotspots,
+    Pose,
+    Rooms,
+    check_label,
+    check_pose,
+    contains,
+    contains_points,
+)
+
+from florence_common.maps import map_file
+from florence_common.yamlfile import YamlError
+
+pytestmark = pytest.mark.unit
+
+SQUARE = [[0, 0], [2, 0], [2, 2], [0, 2]]
+# an L-shaped (concave) room: the notch (1.5, 1.5) is outside
+L_SHAPE = [[0, 0], [2, 0], [2, 1], [1, 1], [1, 2], [0, 2]]
+
+
+@pytest.fixture(scope="module")
+def apartment():
+    return Rooms.load(map_file("apartment", "rooms.yaml"))
+
+
+@pytest.mark.parametrize("x, y, inside", [
+    (1, 1, True), (0, 0, True), (2, 2, True), (1, 0, True), (0, 1.3, True), (2, 0.5, True),  # corners and edges
+    (2.0000001, 1, True),  # within the edge tolerance
+    (2.001, 1, False), (-0.01, 1, False), (1, 2.01, False), (5, 5, False),
+])
+def test_square_holds_its_inside_edges_and_corners(x, y, inside):
+    assert contains(SQUARE, x, y) is inside
+
+
+@pytest.mark.parametrize("x, y, inside", [(0.5, 1.5, True), (1.5, 0.5, True), (1.5, 1.5, False), (1.0, 1.5, True),
+                                          (1.5, 1.0, True), (1.2, 1.2, False)])
+def test_concave_room(x, y, inside):
+    assert contains(L_SHAPE, x, y) is inside
+
+
+@pytest.mark.parametrize("x, y, room", [
+    (1.2, 3.0, "living_room"), (6.3, 2.5, "kitchen"), (3.0, 6.15, "corridor"), (1.2, 7.6, "bedroom"),
+    (6.5, 7.7, "bathroom"),
+    # shared edges (wall centre lines): the first room of the file in order (bathroom, bedroom, corridor, kitchen,
+    # living_room) that holds the point
+    (5.0, 2.0, "kitchen"),  # living room | kitchen
+    (3.0, 5.5, "corridor"),  # corridor | living room
+    (1.5, 6.8, "bedroom"),  # bedroom | corridor
+    (5.5, 8.0, "bathroom"),  # bathroom | bedroom
+    (5.5, 6.8, "bathroom"),  # the corner of three rooms
+    (0.0, 0.0, "living_room"), (8.0, 10.0, "bathroom"),  # outer corners
+    # outside every room
+    (-0.1, 3.0, UNKNOWN), (8.2, 1.0, UNKNOWN), (4.0, 10.5, UNKNOWN), (-100.0, -100.0, UNKNOWN),
+    (math.nan, 1.0, UNKNOWN), (1.0, math.inf, UNKNOWN),
+])
+def test_apartment_room_lookup(apartment, x, y, room):
+    assert apartment.room_at(x, y) == room
+
+
+def test_many_points_at_once_agree_with_one_at_a_time(apartment):
+    rng = np.random.default_rng(2)
+    pts = np.vstack([rng.uniform([-0.5, -0.5], [8.5, 10.5], size=(400, 2)),
+                     [[5.0, 2.0], [3.0, 5.5], [5.5, 6.8], [0.0, 0.0], [8.0, 10.0], [math.nan, 1.0]]])
+    assert list(apartment.rooms_at(pts)) == [apartment.room_at(x, y) for x, y in pts]
+    for x, y in rng.uniform(-0.2, 2.2, size=(200, 2)):
+        assert contains_points(L_SHAPE, [[x, y]])[0] == contains(L_SHAPE, x, y)
+
+
+def test_rooms_file_beside_the_map_and_the_locator_config_agree(apartment):
+    """The map's rooms.yaml ({polygon, hotspot} per room) and florence_locator's config/rooms.yaml (polygons only)
+    give the same lookup; the map's file also carries a hotspot per room."""
+    import rospkg
+
+    config = Rooms.load(f"{rospkg.RosPack().get_path('florence_locator')}/config/rooms.yaml")
+    assert set(config.labels()) == set(apartment.labels()) == {"living_room", "kitchen", "corridor", "bedroom",
+                                                               "bathroom"}
+    rng = np.random.default_rng(1)
+    for x, y in rng.uniform([-0.5, -0.5], [8.5, 10.5], size=(300, 2)):
+        room = config.room_at(x, y)
+        assert room == apartment.room_at(x, y) or (room != UNKNOWN and apartment.room_at(x, y) != UNKNOWN)
+    assert apartment.hotspots["bedroom"] == Pose(1.2, 7.6, pytest.approx(1.5707963))
+    assert config.hotspots == {}
+
+
+@pytest.mark.parametrize("text, line, words", [
+    ("rooms:\n  hall: [[0, 0], [1, 0]]\n", 2, "at least 3 points"),
+    ("rooms:\n  hall:\n    - [0, 0]\n    - [1, x]\n    - [1, 1]\n", 4, "must be a number"),
+    ("rooms:\n  hall: [[0, 0], [1, 0], [2, 0]]\n", 2, "no area"),
+    ("rooms:\n  unknown: [[0, 0], [1, 0], [1, 1]]\n", 2, "'unknown' is the label of places outside"),
+    ("rooms:\n  hall: {polygon: [[0, 0], [1, 0], [1, 1]], hotspot: {x: 1, y: .nan, phi: 0}}\n", 2, "finite"),
+    ("rooms:\n  hall: {polygn: [[0, 0], [1, 0], [1, 1]]}\n", 2, "unknown key 'polygn'"),
+    ("rooms:\n  a: [[0, 0], [1, 0], [1, 1]]\n  a: [[0, 0], [1, 0], [1, 1]]\n", 3, "duplicate key"),
+    ("rooms: [1, 2]\n", 1, "expected a mapping 'rooms'"),
+    ("rooms:\n  hall: [[0, 0], [1, 0], [1, 1]\n", 3, "not valid YAML"),
+])
+def test_a_bad_rooms_file_names_the_file_and_line(tmp_path, text, line, words):
+    path = tmp_path / "rooms.yaml"
+    path.write_text(text)
+    with pytest.raises(YamlError, match=words) as info:
+        Rooms.load(path)
+    assert str(info.value).startswith(f"{path}:{line}: "), str(info.value)
+
+
+@pytest.mark.parametrize("text, line, words", [
+    ("hotspots:\n  kitchen: {x: 1, y: 2}\n", 2, "missing phi"),
+    ("hotspots:\n  kitchen: {x: 1, y: 2, phi: 0, z: 3}\n", 2, "unknown key 'z'"),
+    ("hotspots:\n  kitchen:\n    x: 1\n    y: abc\n    phi: 0\n", 4, "must be a number"),
+    ("hotspots:\n  kitchen: {x: .inf, y: 2, phi: 0}\n", 2, "finite"),
+    ("hotspots:\n  kitchen: [1, 2, 0]\n", 2, "expected {x"),
+    ("hotspot:\n  kitchen: {x: 1, y: 2, phi: 0}\n", 1, "expected a mapping 'hotspots'"),
+    ("hotspots:\n  kitchen: {x: 1, y: 2, phi: 0\n", 3, "not valid YAML"),
+])
+def test_a_bad_hotspots_file_names_the_file_and_line(tmp_path, text, line, words):
+    path = tmp_path / "hotspots.yaml"
+    path.write_text(text)
+    with pytest.raises(YamlError, match=words) as info:
+        Hotspots.load(path)
+    assert str(info.value).startswith(f"{path}:{line}: "), str(info.value)
+
+
+def test_hotspots_round_trip_and_survive_a_restart(tmp_path):
+    path = tmp_path / "hotspots.yaml"
+    path.write_text("hotspots:\n  kitchen: {x: 6.3, y: 2.5, phi: 0.0}\n")
+    spots = Hotspots.load(path)
+    spots.set("tv", Pose(2.0, 1.0, 3.0))
+    spots.set(" kitchen ", Pose(6.0, 2.0, -1.0))  # labels are stripped
+    again = Hotspots.load(path)  # what a restarted locator reads
+    assert dict(again.items()) == {"kitchen": Pose(6.0, 2.0, -1.0), "tv": Pose(2.0, 1.0, 3.0)}
+    assert [p.name for p in tmp_path.iterdir()] == ["hotspots.yaml"]  # no temporary left behind
+    assert Hotspots.load(tmp_path / "hotspots.yaml").get("nowhere") is None
+
+
+def test_an_empty_hotspots_list_loads(tmp_path):
+    path = tmp_path / "hotspots.yaml"
+    path.write_text("hotspots:\n")
+    assert Hotspots.load(path).labels() == []
+
+
+def test_a_failed_save_keeps_the_old_value(tmp_path):
+    """The file cannot be written (its folder is a file here; a read-only disk in life): the call fails and
+    nothing changes, in memory or on disk."""
+    (tmp_path / "not_a_folder").write_text("")
+    spots = Hotspots({"kitchen": Pose(6.3, 2.5, 0.0)}, tmp_path / "not_a_folder" / "hotspots.yaml")
+    with pytest.raises(OSError):
+        spots.set("kitchen", Pose(1.0, 1.0, 0.0))
+    with pytest.raises(OSError):
+        spots.set("tv", Pose(1.0, 1.0, 0.0))
+    assert dict(spots.items()) == {"kitchen": Pose(6.3, 2.5, 0.0)}
+
+
+@pytest.mark.parametrize("label, ok", [("kitchen", True), ("  tv ", True), ("", False), ("   ", False),
+                                       ("unknown", False), ("a\nb", False), (3, False)])
+def test_labels(label, ok):
+    if ok:
+        assert check_label(label) == label.strip()
+    else:
+        with pytest.raises(ValueError):
+            check_label(label)
+
+
+def test_poses_must_be_finite():
+    assert check_pose(1, 2, 4.0).phi == pytest.approx(4.0 - 2 * math.pi)
+    for bad in ((math.nan, 0, 0), (0, math.inf, 0), (0, 0, -math.inf)):
+        with pytest.raises(ValueError, match="finite"):
+            check_pose(*bad)
+
+
+def test_floor_map_refuses_walls_unknown_space_and_off_the_map():
+    data = np.zeros((40, 60), dtype=int)  # 3 x 2 m at 5 cm, origin (-1, -1)
+    data[:, 30] = 100  # a wall at x = 0.5 .. 0.55
+    data[:5, :] = -1  # unknown strip at the bottom
+    floor = FloorMap(data, (-1.0, -1.0, 0.0), 0.05)
+    assert floor.problem(0.0, 0.0) is None
+    assert "inside a wall" in floor.problem(0.52, 0.0)
+    assert "unknown space" in floor.problem(0.0, -0.9)
+    assert "off the map" in floor.problem(5.0, 0.0)
+    assert "off the map" in floor.problem(-1.01, 0.0)
+    assert "not finite" in floor.problem(math.nan, 0.0)
+    assert "less than 0.15 m" in floor.problem(0.42, 0.0, clearance=0.15)
+    assert floor.problem(0.2, 0.0, clearance=0.15) is None
+
+
+def test_floor_map_of_the_apartment_accepts_the_shipped_hotspots():
+    from map_server.mapfile import load_map
+
+    grid = load_map(map_file("apartment", "apartment.yaml"))
+    floor = FloorMap(grid.data, grid.origin, grid.resolution)
+    rooms = Rooms.load(map_file("apartment", "rooms.yaml"))
+    for label, spot in rooms.hotspots.items():
+        assert floor.problem(spot.x, spot.y, clearance=0.15) is None, label
+    assert "inside a wall" in floor.problem(5.0, 0.8)  # the living room | kitchen wall
