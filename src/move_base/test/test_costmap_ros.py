@@ -166,11 +166,10 @@ def test_costmap_ros_map_scan_and_published_grid(ros_costmap):
     with cm.lock:
         cm.layered.obstacles.grid.costs[20, 40] = 254  # an old obstacle at (2.0, 1.02) on the clear beam
     scan_pub = publisher("cmtest_scan", LaserScan)
-    buffer = cm.layered.obstacles.buffers["scan"]
 
-    def scan_arrived():
+    def scan_arrived():  # queued by the callback, converted by the next update
         scan_pub.publish(make_scan(rospy, rospy.Time.now() - rospy.Duration(0.1)))
-        return len(buffer.observations) > 0
+        return cm.queued("scan") > 0
 
     wait_for(scan_arrived, 10.0, interval=0.2, what="the costmap to take a scan")
 

@@ -23,6 +23,7 @@ log = logging.getLogger(__name__)
 
 _ZERO = (0.0, 0.0, 0.0)
 NO_VALID_TRAJECTORY = "no valid trajectory (all samples collide)"
+NO_VALID_TRAJECTORY_PEOPLE = "no valid trajectory: the others would come nearer than min_person_distance to a person"
 # [m] within this of the goal position a turn to the goal yaw that collides is a failure; farther
 # (at the edge of xy_goal_tolerance) the robot drives on toward the goal position first
 _AT_GOAL = 0.05
@@ -186,6 +187,11 @@ class LocalPlanner:
         """True once the robot was within both goal tolerances (since the last :meth:`set_plan`)."""
         return self._reached_goal
 
+    def set_people(self, people):
+        """The tracked people for ``min_person_distance``: (P, 4) x, y [m], vx, vy [m/s] in the
+        costmap frame of the next cycles."""
+        self.planner.people = np.asarray(people, dtype=float).reshape(-1, 4)
+
     def compute_velocity(self, costmap, robot_pose, robot_vel, plan):
         """One control cycle (computeVelocityCommands).
 
@@ -272,6 +278,8 @@ class LocalPlanner:
         cmd, cost, points = best
         if cost < 0:
             log.debug("no legal trajectory (cost %.1f)", cost)
+            if self.planner.refused_for_people:
+                return False, _ZERO, NO_VALID_TRAJECTORY_PEOPLE
             return False, _ZERO, NO_VALID_TRAJECTORY
         self.local_plan = points
         return True, cmd, ""
@@ -424,8 +432,19 @@ class LocalPlanner:
         return np.column_stack([px, py, th])
 
     def _path_is_free(self, costmap, points):
-        """Whether the footprint stays clear of lethal cells at every pose (x, y, yaw) of ``points``."""
-        return poses_are_free(costmap, points, self.planner.footprint)
+        """Whether the footprint stays clear of lethal cells at every pose (x, y, yaw) of ``points``
+        and the path does not come nearer than min_person_distance to a person (standing where
+        they are) than its first pose (the paths checked here are the Florence final approach's and
+        braking turns: they end in a stop)."""
+        if not poses_are_free(costmap, points, self.planner.footprint):
+            return False
+        people = self.planner.people
+        if self.params.min_person_distance > 0.0 and len(people):
+            from move_base.people_layer import approaches
+
+            pts = np.asarray(points, dtype=float).reshape(1, -1, 3)
+            return not approaches(pts, np.zeros(pts.shape[:2]), people, self.params.min_person_distance)[0]
+        return True
 
     def _stopped_moving(self, vx, vy):
         """Translation within trans_stopped_velocity (the rotation may go on)."""

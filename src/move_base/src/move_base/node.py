@@ -50,9 +50,10 @@ from move_base import move_base_core, navfn
 from move_base.costmap_2d import LETHAL_OBSTACLE
 from move_base.costmap_ros import Costmap2DROS
 from move_base.layers import footprint_cost
-from move_base.local_planner import LocalPlanner
-from move_base.move_base_core import CLEARING, MoveBaseCore
-from move_base.navfn import NavfnPlanner
+from move_base.local_planner import NO_VALID_TRAJECTORY_PEOPLE, LocalPlanner
+from move_base.move_base_core import CLEARING, WAITING, MoveBaseCore
+from move_base.navfn import NavfnPlanner, compute_potential, translate_costs
+from move_base.people_layer import GIVE_WAY_KEEP_OFF, GIVE_WAY_MAX_COST, GIVE_WAY_MIN_DISTANCE, give_way_cells
 from move_base.recovery import (
     CLEAR_COSTMAP_PARAMS,
     ClearCostmapRecovery,
@@ -173,6 +174,8 @@ class ControllerAdapter:
         # the local planner's stored copy: it prunes it as the robot advances (TrajectoryPlannerROS)
         plan_local = np.asarray(pose2d.compose(to_local, node.local_planner.global_plan)).reshape(-1, 3)
         with local.lock:
+            if local.layered.people is not None:
+                node.local_planner.set_people(local.layered.people.current(rospy.get_time())[0])
             ok, cmd, reason = node.local_planner.compute_velocity(local.costmap, here, node.robot_velocity(),
                                                                   plan_local)
         stamp = rospy.Time.now()
@@ -184,6 +187,66 @@ class ControllerAdapter:
 
     def is_goal_reached(self):
         return self.node.local_planner.is_goal_reached()
+
+
+class PeopleAdapter:
+    """The state machine's view of the people (Florence's waiting and giving way), from the global
+    costmap's proxemic layer: whether people stand in the way, and where to give way to them."""
+
+    def __init__(self, node):
+        self.node = node
+
+    def _people(self):
+        """(P, 4) x, y [m], vx, vy [m/s] of the tracked people in the global frame now."""
+        layer = self.node.planner_costmap.layered.people
+        if layer is None:
+            return np.zeros((0, 4))
+        with self.node.planner_costmap.lock:
+            return layer.current(rospy.get_time())[0]
+
+    def blocking(self, pose, goal, reason):
+        """Why people stand in the way after a failed plan (``reason`` None: a plan exists with the
+        people left out) or control (the local planner kept its distance from a person, or a person
+        is within 1.2 m), or ''."""
+        if reason == NO_VALID_TRAJECTORY_PEOPLE:
+            return "a person is nearer than min_person_distance on every way on"
+        people = self._people()
+        if not len(people):
+            return ""
+        d = np.hypot(people[:, 0] - pose[0], people[:, 1] - pose[1])
+        i = int(np.argmin(d))
+        near = f"a person at ({people[i, 0]:.2f}, {people[i, 1]:.2f}), {d[i]:.2f} m away"
+        if reason is not None:
+            return f"{near}: {reason}" if d[i] < 1.2 else ""
+        costmap = self.node.planner_costmap
+        layer = costmap.layered.people
+        with costmap.lock:
+            free = costmap.layered.without_people(max(0.4, layer.lethal_radius + 0.15))
+            result = self.node.global_planner.make_plan(free, pose, goal)
+        return f"{near} stands in the way (there is a way without them)" if result.ok else ""
+
+    def give_way(self, pose):
+        """A pose (x, y, yaw) out of the tracked people's way (people_layer.give_way_cells on a navfn
+        potential from the robot over the global costmap), or None."""
+        costmap = self.node.planner_costmap
+        people = self._people()
+        if not len(people):
+            return None
+        with costmap.lock:
+            grid = costmap.layered.costmap.copy()
+        cell = grid.world_to_map(pose[0], pose[1])
+        if cell is None:
+            return None
+        potential = compute_potential(translate_costs(grid.costs, self.node.global_planner.allow_unknown, cell), cell)
+        potential = np.where(grid.costs < GIVE_WAY_MAX_COST, potential, np.inf)
+        target = give_way_cells(potential, grid, pose[:2], people, GIVE_WAY_KEEP_OFF, GIVE_WAY_MIN_DISTANCE)
+        if target is None:
+            rospy.loginfo(LOG + "no place to give way to the people from (%.2f, %.2f)", pose[0], pose[1])
+            return None
+        return target[0], target[1], math.atan2(target[1] - pose[1], target[0] - pose[0])
+
+    def plan_to(self, start, pose):
+        return self.node._plan(start, pose)
 
 
 class MoveBaseNode:
@@ -214,8 +277,15 @@ class MoveBaseNode:
         self.local_planner = LocalPlanner(self.planner_params, fp, self.controller_costmap.inscribed_radius,
                                           self.controller_costmap.circumscribed_radius)
         self.recoveries = self._load_recoveries()
+        people = None
+        if self.params.person_wait_timeout > 0.0:
+            if self.planner_costmap.layered.people is None:
+                rospy.logwarn(LOG + "person_wait_timeout is set but the global costmap has no people_topic: the "
+                              "robot cannot tell when people stand in its way, and does not wait for them")
+            else:
+                people = PeopleAdapter(self)
         self.core = MoveBaseCore(self.params, self._plan_for_core, ControllerAdapter(self),
-                                 self.recoveries, self._sensors_current)
+                                 self.recoveries, self._sensors_current, people)
         self.core_lock = threading.Lock()
         self.recoveries_run = 0  # since start
         self.goal_recoveries = 0  # in the current (or last) goal
@@ -324,8 +394,10 @@ class MoveBaseNode:
             elif outcome:
                 summary = f"no goal (last {outcome})"
         else:
-            level = WARN if state == CLEARING else OK
+            level = WARN if state in (CLEARING, WAITING) else OK
             summary = f"{state} toward ({goal[0]:.2f}, {goal[1]:.2f}, {goal[2]:.2f} rad)"
+            if state == WAITING:
+                summary += f": {self.core.g.reasons.get(self.core.g.wait_trigger, '')}"
             if state == CLEARING and recovery is not None:
                 summary += f": recovery {recovery.name}"
         stat.summary(level, summary)

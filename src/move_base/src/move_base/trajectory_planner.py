@@ -109,6 +109,9 @@ PARAMS = ParamTable(
           "while braking (ROS stops first)"),
     Param("turn_before_tolerance", bool, False, "Florence, with rotate_while_braking: brake and turn before "
           "xy_goal_tolerance when a simulation of it ends well inside the tolerance and reaches the goal sooner"),
+    Param("min_person_distance", float, 0.0, "Florence: no trajectory brings the robot's centre nearer than this "
+          "to a tracked person (walking on at their velocity) than standing still would; turning on the spot and "
+          "moving away stay allowed (0: off, ROS)", unit="m", ge=0.0),
 )
 """TrajectoryPlannerROS's parameters (``~TrajectoryPlannerROS/``: ROS names and defaults, plus
 Florence's three, off by default, which is ROS's behaviour)."""
@@ -576,6 +579,9 @@ class Trajectory:
     points: np.ndarray
 
 
+PEOPLE_COST = -3.0  # a trajectory refused for min_person_distance (Florence; the escape does not override it)
+
+
 class TrajectoryPlanner:
     """base_local_planner::TrajectoryPlanner on a :class:`Costmap2D`.
 
@@ -595,6 +601,9 @@ class TrajectoryPlanner:
         self.local_goal = None  # (x, y) [m] of the local goal cell's centre
         self._plan_xy = np.empty((0, 2))
         self.last_trajectory = None  # the Trajectory chosen by the last find_best_command
+        self.people = np.zeros((0, 4))  # (P, 4) x, y [m], vx, vy [m/s] in the costmap frame (min_person_distance)
+        self.refused_for_people = 0  # trajectories the last scoring refused for min_person_distance alone
+        self._brake = None  # (x, y, yaw, vx, acc_lim_x) of the cycle: braking is never refused for people
         self.reset_oscillation_flags()
         self.escaping = False
         self.prev_x = self.prev_y = 0.0  # [m] where the last in-place move was chosen
@@ -753,12 +762,23 @@ class TrajectoryPlanner:
         if p.heading_scoring:
             cost = cost + 0.3 * head
         cost = np.where(status == 0, cost, status.astype(float))
+        self.refused_for_people = 0
+        if p.min_person_distance > 0.0 and len(self.people):
+            from move_base.people_layer import approaches
+
+            steps = np.asarray(steps, np.int64)
+            index = np.arange(points.shape[1])[None, :]
+            times = np.where(index < steps[:, None], index * np.asarray(dt, float).reshape(-1, 1), np.inf)
+            near = approaches(points, times, self.people, p.min_person_distance, brake=self._brake)
+            self.refused_for_people = int(np.count_nonzero(near & (cost >= 0.0)))
+            cost = np.where(near & (cost >= 0.0), PEOPLE_COST, cost)
         return cost, n_valid
 
     def check_trajectory(self, costmap, x, y, yaw, vx, vy, vth, vx_samp, vy_samp, vth_samp):
         """True when the command (vx_samp, vy_samp, vth_samp) simulated from the current pose and
         velocity is legal (TrajectoryPlanner::checkTrajectory; needs :meth:`update_plan` first)."""
         pts, steps, dt = self.generate_trajectories(x, y, yaw, vx, vy, vth, [(vx_samp, vy_samp, vth_samp)])
+        self._brake = (float(x), float(y), float(yaw), float(vx), float(self.params.acc_lim_x))
         cost, _ = self.score_trajectories(costmap, pts, steps, dt)
         return bool(cost[0] >= 0.0)
 
@@ -780,6 +800,7 @@ class TrajectoryPlanner:
         """
         plan_xy = np.asarray(plan_xy, dtype=float).reshape(-1, 2)
         self.update_plan(costmap, plan_xy, x, y, yaw)
+        self._brake = (float(x), float(y), float(yaw), float(vx), float(self.params.acc_lim_x))
         if goal_xy is None and len(plan_xy):
             goal_xy = plan_xy[-1]
         final_goal_dist = math.hypot(goal_xy[0] - x, goal_xy[1] - y) if goal_xy is not None else math.inf
