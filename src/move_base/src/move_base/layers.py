@@ -415,8 +415,10 @@ class ObstacleLayer:
             for b in self.buffers.values():
                 b.reset_last_updated(now)
 
-    def update(self):
-        """Clear, then mark, with the buffered observations (ROS updateBounds)."""
+    def update(self, clear_discs=None):
+        """Clear, then mark, with the buffered observations (ROS updateBounds). ``clear_discs``
+        (N, 3) x, y, radius [m]: cells to free after the ray tracing and before the marking (where
+        tracked people walked: what a sensor still sees there is marked again)."""
         if self.grid is None:
             return
         for b in self.buffers.values():
@@ -425,8 +427,23 @@ class ObstacleLayer:
         marking = [(b.source, o) for b in self.buffers.values() if b.source.marking for o in b.observations]
         if clearing:
             self._raytrace(clearing)
+        self._clear_discs(clear_discs)
         if marking:
             self._mark(marking)
+
+    def _clear_discs(self, discs):
+        """Free the cells within each disc (x, y, radius) [m] (see :meth:`update`)."""
+        if discs is None or len(discs) == 0 or self.grid is None:
+            return
+        g = self.grid
+        for x, y, r in np.asarray(discs, dtype=float).reshape(-1, 3):
+            rows, cols = _window(g, x, y, 2.0 * r)
+            ys, xs = np.mgrid[rows, cols]
+            if xs.size == 0:
+                continue
+            wx, wy = g.map_to_world(xs, ys)
+            inside = (wx - x) ** 2 + (wy - y) ** 2 <= r * r
+            self.clear_cells(xs[inside], ys[inside])
 
     def _raytrace(self, clearing):
         g = self.grid
@@ -479,6 +496,10 @@ class ObstacleLayer:
             near = sq < src.obstacle_range * src.obstacle_range
             mx, my, inside = g.world_to_map(p[near, 0], p[near, 1])
             g.costs[my[inside], mx[inside]] = LETHAL_OBSTACLE
+
+    def band(self, z_band):
+        """Cells marked at heights within ``z_band`` (a 2-D layer: every lethal cell)."""
+        return self.grid.costs == LETHAL_OBSTACLE
 
     def clear_cells(self, mx, my):
         """Cells (mx, my) (index arrays) become FREE_SPACE: the robot's footprint."""
@@ -753,7 +774,10 @@ class LayeredCostmap:
             w, h = c.size_m
             c.update_origin(robot_x - w / 2.0, robot_y - h / 2.0)
             self.obstacles.update_origin(robot_x - w / 2.0, robot_y - h / 2.0)
-        self.obstacles.update()
+        # where tracked people walked lately, the sensors' marks are theirs, not furniture's: freed
+        # before the newest readings mark what is there now (a walker who left the Kinect's view
+        # would otherwise leave a trail of voxels behind)
+        self.obstacles.update(None if self.people is None else self.people.trail(now))
         self._under_robot = None
         if robot_yaw is not None:
             self._under_robot = polygon_cells(c, transform_footprint(self.footprint, robot_x, robot_y, robot_yaw))
@@ -807,25 +831,59 @@ class LayeredCostmap:
             self.people.update_costs(c, self._now, robot)
         self.inflation.update_costs(c)
 
-    def without_people(self, clear_radius):
-        """A copy of the master grid built without the people: no proxemic costs, and the obstacle
-        layer's marks within ``clear_radius`` [m] of each tracked person left out (their legs and
-        bodies as the sensors saw them). Where a plan exists on it but not on the master grid,
-        people stand in the way."""
+    def map_only(self):
+        """A copy of the master grid built from the maps alone (static and keep-out layers and their
+        inflation): no sensor marks, no people. Where a plan exists on it but not on the master
+        grid, something the map does not have stands in the way: people, or things that move."""
         c = self.costmap.copy()
-        obstacles = None
-        if self.people is not None and self.obstacles.grid is not None:
-            people, _ = self.people.current(self._now)
-            if len(people):
-                g = self.obstacles.grid
-                obstacles = g.costs.copy()
-                ys, xs = np.mgrid[0:g.size_y, 0:g.size_x]
-                wx, wy = g.map_to_world(xs, ys)
-                for px, py, _vx, _vy in people:
-                    near = (wx - px) ** 2 + (wy - py) ** 2 <= clear_radius * clear_radius
-                    obstacles[near & (obstacles == LETHAL_OBSTACLE)] = FREE_SPACE
-        self._combine(c, people=False, obstacles=obstacles)
+        empty = np.full(c.costs.shape, NO_INFORMATION, dtype=np.uint8)
+        self._combine(c, people=False, obstacles=empty)
         return c
+
+    def unmapped_marks(self, x, y, radius, z_band=(0.05, 0.35), tolerance=0.15):
+        """(N, 2) [m] the returns of the sensors' newest readings within ``radius`` [m] of (x, y)
+        and between the heights ``z_band`` [m] (a person's legs, where the laser sees them) that lie
+        farther than ``tolerance`` [m] (the localization's error) from every lethal cell of the
+        static and keep-out layers: what may be a person the tracker does not know. Only what the
+        sensors see now counts (not older marks of the obstacle layer: a person who walked on is
+        no longer there). One point per cell of the grid."""
+        g = self.obstacles.grid
+        if g is None:
+            return np.zeros((0, 2))
+        pts = [b.observations[-1].points for b in self.obstacles.buffers.values()
+               if b.source.marking and b.observations]
+        if not pts:
+            return np.zeros((0, 2))
+        p = np.concatenate(pts)
+        keep = ((p[:, 2] >= z_band[0]) & (p[:, 2] <= z_band[1])
+                & ((p[:, 0] - x) ** 2 + (p[:, 1] - y) ** 2 <= radius * radius))
+        mx, my, inside = g.world_to_map(p[keep, 0], p[keep, 1])
+        mx, my = mx[inside], my[inside]
+        unmapped = ~self._mapped(tolerance)[my, mx]
+        cells = np.unique(my[unmapped] * g.size_x + mx[unmapped])
+        wx, wy = g.map_to_world(cells % g.size_x, cells // g.size_x)
+        return np.column_stack([np.atleast_1d(wx), np.atleast_1d(wy)]).reshape(-1, 2)
+
+    def _mapped(self, tolerance):
+        """Cells within ``tolerance`` [m] of a lethal cell of the static and keep-out layers, on the
+        master's geometry (the maps placed as at the last update)."""
+        c = self.costmap
+        key = (id(self.static.grid) if self.static is not None else None,
+               id(self.keepout.grid) if self.keepout is not None else None,
+               self.static.pose if self.static is not None else None,
+               self.keepout.pose if self.keepout is not None else None, c.origin_x, c.origin_y, tolerance)
+        if getattr(self, "_mapped_key", None) != key:
+            scratch = Costmap2D(c.size_x, c.size_y, c.resolution, c.origin_x, c.origin_y)
+            lethal = np.zeros(c.costs.shape, dtype=bool)
+            for layer in (self.static, self.keepout):
+                if layer is not None:
+                    scratch.costs[...] = FREE_SPACE
+                    layer.update_costs(scratch)
+                    lethal |= scratch.costs == LETHAL_OBSTACLE
+            cells = max(0, math.ceil(tolerance / c.resolution))
+            self._mapped_mask = ndimage.binary_dilation(lethal, iterations=cells) if cells and lethal.any() else lethal
+            self._mapped_key = key
+        return self._mapped_mask
 
     def footprint_cost(self, x, y, yaw):
         """:func:`footprint_cost` of the robot at (x, y) [m] heading ``yaw`` [rad] on the master grid."""

@@ -12,8 +12,8 @@ recoveries are stepped by the cycle so that a cancel stops even an in-place rota
 
 The collaborators are injected (duck-typed), so the machine is tested with fakes:
     planner(start, goal) -> PlanResult-like (ok, poses (N, 3), reason, permanent: bool)
-    controller: set_plan(poses), compute_velocity(pose) -> (ok, (vx, vy, vth), reason),
-                is_goal_reached() -> bool
+    controller: set_plan(poses, giving_way=False), compute_velocity(pose) -> (ok, (vx, vy, vth),
+                reason), is_goal_reached() -> bool
     recoveries: objects with ``name`` and ``start(now, pose)``, ``step(now, pose) -> (done, cmd)``
     sensors_current() -> (ok, reason)
     people (optional): blocking(pose, goal, reason) -> why people stand in the way after a failed
@@ -120,6 +120,7 @@ class _GoalState:
     giving_way: tuple | None = None  # the pose the robot drives to, out of the people's way
     gave_way: int = 0  # give-way moves in this wait
     wait_trigger: str = PLANNING_R
+    wait_text: str = ""  # why the robot waited, once it waited person_wait_timeout out
 
 
 class MoveBaseCore:
@@ -341,8 +342,9 @@ class MoveBaseCore:
             g.giving_way = None
             g.state = CLEARING
             g.trigger = g.wait_trigger
-            g.reasons[g.trigger] = (f"people stood in the way for {waited:.0f} s (person_wait_timeout "
-                                    f"{p.person_wait_timeout:.0f} s): {g.reasons.get(g.wait_trigger, '')}")
+            g.reasons[g.trigger] = g.wait_text = (f"people stood in the way for {waited:.0f} s (person_wait_timeout "
+                                                  f"{p.person_wait_timeout:.0f} s): "
+                                                  f"{g.reasons.get(g.wait_trigger, '')}")
             return CycleResult(cmd=ZERO, text=g.reasons[g.trigger])
         if g.giving_way is not None:
             ok, cmd, reason = self.controller.compute_velocity(tuple(pose))
@@ -378,7 +380,7 @@ class MoveBaseCore:
             if target is not None:
                 aside = self.people.plan_to(tuple(pose), target)
                 if aside.ok:
-                    self.controller.set_plan(aside.poses)
+                    self.controller.set_plan(aside.poses, giving_way=True)
                     g.giving_way = tuple(target)
                     log.info("giving way: to (%.2f, %.2f)", target[0], target[1])
                     return CycleResult(cmd=ZERO, text="giving way to people")
@@ -400,6 +402,8 @@ class MoveBaseCore:
         after = "even after executing recovery behaviors" if self.params.recovery_behavior_enabled and \
             self.recoveries else "(recovery behaviours disabled)"
         detail = g.reasons.get(g.trigger, "")
+        if g.wait_text and g.wait_text not in detail:
+            detail = f"{detail} (before that, {g.wait_text})" if detail else g.wait_text
         return f"{what} {after}: {detail}" if detail else f"{what} {after}."
 
     def _abort(self, text):

@@ -158,8 +158,8 @@ class ControllerAdapter:
     def __init__(self, node):
         self.node = node
 
-    def set_plan(self, poses):
-        self.node.local_planner.set_plan(np.asarray(poses, dtype=float))
+    def set_plan(self, poses, giving_way=False):
+        self.node.local_planner.set_plan(np.asarray(poses, dtype=float), giving_way)
 
     def compute_velocity(self, pose):
         node = self.node
@@ -173,9 +173,16 @@ class ControllerAdapter:
                                             f"{local.global_frame}")
         # the local planner's stored copy: it prunes it as the robot advances (TrajectoryPlannerROS)
         plan_local = np.asarray(pose2d.compose(to_local, node.local_planner.global_plan)).reshape(-1, 3)
+        still = None
+        if node.local_planner.params.min_person_distance > 0.0:
+            # leg-height marks the maps do not have, near the robot: people the tracker may not know
+            glob = node.planner_costmap
+            with glob.lock:
+                still = glob.layered.unmapped_marks(pose[0], pose[1], 2.5)
+            still = pose2d.transform_points(to_local, still) if len(still) else still
         with local.lock:
             if local.layered.people is not None:
-                node.local_planner.set_people(local.layered.people.current(rospy.get_time())[0])
+                node.local_planner.set_people(local.layered.people.current(rospy.get_time())[0], still)
             ok, cmd, reason = node.local_planner.compute_velocity(local.costmap, here, node.robot_velocity(),
                                                                   plan_local)
         stamp = rospy.Time.now()
@@ -190,8 +197,10 @@ class ControllerAdapter:
 
 
 class PeopleAdapter:
-    """The state machine's view of the people (Florence's waiting and giving way), from the global
-    costmap's proxemic layer: whether people stand in the way, and where to give way to them."""
+    """The state machine's view of people (Florence's waiting and giving way), from the global
+    costmap: the tracked people of its proxemic layer, and what its sensors see at leg height where
+    the map has nothing (a person the tracker does not know, standing close or out of the Kinect's
+    view; or something that was moved)."""
 
     def __init__(self, node):
         self.node = node
@@ -204,42 +213,60 @@ class PeopleAdapter:
         with self.node.planner_costmap.lock:
             return layer.current(rospy.get_time())[0]
 
-    def blocking(self, pose, goal, reason):
-        """Why people stand in the way after a failed plan (``reason`` None: a plan exists with the
-        people left out) or control (the local planner kept its distance from a person, or a person
-        is within 1.2 m), or ''."""
-        if reason == NO_VALID_TRAJECTORY_PEOPLE:
-            return "a person is nearer than min_person_distance on every way on"
+    def _blockers(self, pose, radius):
+        """(B, 4) the tracked people and the unmapped leg-height marks (still) within ``radius`` [m]."""
         people = self._people()
-        if not len(people):
-            return ""
-        d = np.hypot(people[:, 0] - pose[0], people[:, 1] - pose[1])
-        i = int(np.argmin(d))
-        near = f"a person at ({people[i, 0]:.2f}, {people[i, 1]:.2f}), {d[i]:.2f} m away"
-        if reason is not None:
-            return f"{near}: {reason}" if d[i] < 1.2 else ""
         costmap = self.node.planner_costmap
-        layer = costmap.layered.people
         with costmap.lock:
-            free = costmap.layered.without_people(max(0.4, layer.lethal_radius + 0.15))
-            result = self.node.global_planner.make_plan(free, pose, goal)
-        return f"{near} stands in the way (there is a way without them)" if result.ok else ""
+            still = costmap.layered.unmapped_marks(pose[0], pose[1], radius)
+        rows = [people[np.hypot(people[:, 0] - pose[0], people[:, 1] - pose[1]) <= radius],
+                np.column_stack([still, np.zeros((len(still), 2))])]
+        return np.concatenate(rows).reshape(-1, 4), len(rows[0])
+
+    def _describe(self, pose, blockers, tracked):
+        if not len(blockers):
+            return ""
+        d = np.hypot(blockers[:, 0] - pose[0], blockers[:, 1] - pose[1])
+        i = int(np.argmin(d))
+        what = "a person" if i < tracked else "something the map does not have (a person?)"
+        return f"{what} at ({blockers[i, 0]:.2f}, {blockers[i, 1]:.2f}), {d[i]:.2f} m away"
+
+    def blocking(self, pose, goal, reason):
+        """Why people stand in the way after a failed plan (``reason`` None: a plan exists on the
+        maps alone, without what the sensors see) or control (the local planner kept its distance
+        from a person, or a person or an unmapped obstacle is within 1.2 m), or ''."""
+        blockers, tracked = self._blockers(pose, 1.2 if reason is not None else 3.0)
+        if reason == NO_VALID_TRAJECTORY_PEOPLE:
+            near = self._describe(pose, blockers, tracked)
+            return f"{near or 'a person'} is nearer than min_person_distance on every way on"
+        if not len(blockers):
+            return ""
+        near = self._describe(pose, blockers, tracked)
+        if reason is not None:
+            return f"{near}: {reason}"
+        costmap = self.node.planner_costmap
+        with costmap.lock:
+            free = costmap.layered.map_only()
+            result = self.node.global_planner.make_plan(free, pose, goal, start_clearance=costmap.inscribed_radius)
+        return f"{near} stands in the way (the map has a way)" if result.ok else ""
 
     def give_way(self, pose):
-        """A pose (x, y, yaw) out of the tracked people's way (people_layer.give_way_cells on a navfn
-        potential from the robot over the global costmap), or None."""
+        """A pose (x, y, yaw) out of the way of the people (and unmapped marks) within 2 m
+        (people_layer.give_way_cells on a navfn potential from the robot over the global costmap),
+        or None."""
         costmap = self.node.planner_costmap
-        people = self._people()
-        if not len(people):
+        blockers, _ = self._blockers(pose, 2.0)
+        if not len(blockers):
             return None
         with costmap.lock:
             grid = costmap.layered.costmap.copy()
         cell = grid.world_to_map(pose[0], pose[1])
         if cell is None:
             return None
-        potential = compute_potential(translate_costs(grid.costs, self.node.global_planner.allow_unknown, cell), cell)
+        trav = translate_costs(grid.costs, self.node.global_planner.allow_unknown, cell)
+        potential = compute_potential(trav, cell)
         potential = np.where(grid.costs < GIVE_WAY_MAX_COST, potential, np.inf)
-        target = give_way_cells(potential, grid, pose[:2], people, GIVE_WAY_KEEP_OFF, GIVE_WAY_MIN_DISTANCE)
+        target = give_way_cells(potential, grid, pose[:2], blockers, GIVE_WAY_KEEP_OFF, GIVE_WAY_MIN_DISTANCE)
         if target is None:
             rospy.loginfo(LOG + "no place to give way to the people from (%.2f, %.2f)", pose[0], pose[1])
             return None
@@ -446,7 +473,8 @@ class MoveBaseNode:
     def _plan(self, start, goal, tolerance=None):
         costmap = self.planner_costmap
         with costmap.lock:
-            result = self.global_planner.make_plan(costmap.costmap, start, goal, tolerance)
+            result = self.global_planner.make_plan(costmap.costmap, start, goal, tolerance,
+                                                   start_clearance=costmap.inscribed_radius)
             if not result.ok:
                 result.permanent = goal_is_hopeless(costmap.layered, goal[0], goal[1])
         return result
@@ -579,6 +607,7 @@ class MoveBaseNode:
             return
         period = 1.0 / self.params.controller_frequency
         next_time = rospy.get_time()
+        last_text = ""
         while not rospy.is_shutdown():
             if self.server.is_preempt_requested():
                 if self.server.is_new_goal_available():
@@ -609,6 +638,9 @@ class MoveBaseNode:
             elif state_before != self.core.state and self.core.state is not None:
                 rospy.loginfo(LOG + "%s -> %s%s", state_before, self.core.state,
                               f": {result.text}" if result.text else "")
+            elif self.core.state == WAITING and result.text.split(":")[0] != last_text.split(":", maxsplit=1)[0]:
+                rospy.loginfo(LOG + "%s", result.text)  # waiting <-> giving way
+            last_text = result.text
             if result.outcome:
                 self._end(result.outcome, result.text)
                 return

@@ -39,6 +39,11 @@ PROXEMIC_PARAMS = ParamTable(
           gt=0.0),
     Param("lethal_radius", float, 0.0, "Florence: the disc of this radius round a person is lethal (0: none, as "
           "ROS)", unit="m", ge=0.0),
+    Param("trail_time", float, 5.0, "Florence: the obstacle marks within trail_radius of where a tracked person "
+          "was in this time are theirs and freed before each update's marking (what a sensor sees there now is "
+          "marked again; 0: none)", unit="s", ge=0.0),
+    Param("trail_radius", float, 0.3, "Florence: see trail_time (a person's body about their tracked centre)",
+          unit="m", ge=0.0),
 )
 """A costmap's proxemic layer (``~<costmap>/proxemic/``: ProxemicLayer's names and defaults plus
 Florence's lethal_radius)."""
@@ -59,15 +64,19 @@ class Person:
 class ProxemicLayer:
     """The people's costs (see the module docstring); ``params``: :data:`PROXEMIC_PARAMS`' values."""
 
-    def __init__(self, amplitude=77.0, covariance=0.25, cutoff=10.0, factor=5.0, keep_time=0.75, lethal_radius=0.0):
+    def __init__(self, amplitude=77.0, covariance=0.25, cutoff=10.0, factor=5.0, keep_time=0.75, lethal_radius=0.0,
+                 trail_time=5.0, trail_radius=0.3):
         self.amplitude = float(amplitude)
         self.covariance = float(covariance)
         self.cutoff = float(cutoff)
         self.factor = float(factor)
         self.keep_time = float(keep_time)
         self.lethal_radius = float(lethal_radius)
+        self.trail_time = float(trail_time)
+        self.trail_radius = float(trail_radius)
         self._people = []  # Person list of the last message
         self._stamp = None  # [s] its time
+        self._trail = []  # (t [s], x [m], y [m]) of every tracked person of the last trail_time
 
     def set_people(self, people, stamp):
         """The people of the newest tracker message (an iterable of :class:`Person`), ``stamp`` [s]
@@ -81,11 +90,29 @@ class ProxemicLayer:
                 dropped += 1
         self._people = kept
         self._stamp = float(stamp)
+        self._trail.extend((p.seen, p.x, p.y) for p in kept)
         return dropped
 
     def clear(self):
         self._people = []
         self._stamp = None
+        self._trail = []
+
+    def trail(self, now=None):
+        """(N, 3) x, y [m], trail_radius: where tracked people were within trail_time before
+        ``now`` [s] (None: the last message's time), thinned to one disc per trail_radius / 2 of
+        walking; empty when trail_time is 0."""
+        if self.trail_time <= 0.0 or not self._trail:
+            return np.zeros((0, 3))
+        now = self._stamp if now is None else now
+        self._trail = [row for row in self._trail if now - row[0] <= self.trail_time]
+        if not self._trail:
+            return np.zeros((0, 3))
+        xy = np.array([row[1:] for row in self._trail])
+        cells = np.floor(xy / max(self.trail_radius / 2.0, 1e-3)).astype(np.int64)
+        _, first = np.unique(cells, axis=0, return_index=True)
+        xy = xy[np.sort(first)]
+        return np.column_stack([xy, np.full(len(xy), self.trail_radius)])
 
     def current(self, now=None):
         """The people still tracked at ``now`` [s] (None: all of the last message), each moved along
@@ -170,7 +197,7 @@ def braking_positions(times, start, speed, acc):
     return start[0] + s * math.cos(start[2]), start[1] + s * math.sin(start[2])
 
 
-def approaches(points, times, people, min_distance, tolerance=0.01, brake=None):
+def approaches(points, times, people, min_distance, tolerance=0.01, brake=None, still=None):
     """Which trajectories bring the robot's centre nearer than ``min_distance`` [m] to a person
     than braking would: trajectory k is refused when at some step i its position is within
     ``min_distance`` of where a person will be at ``times[k, i]`` [s] (walking on at their
@@ -180,11 +207,14 @@ def approaches(points, times, people, min_distance, tolerance=0.01, brake=None):
     are never refused, so a robot a person walked up to can always leave.
 
     ``points`` (K, T, >= 2) [m], ``times`` (K, T) [s] (np.inf past a trajectory's last step),
-    ``people`` (P, 4) (x, y, vx, vy). Returns a bool array (K,)."""
+    ``people`` (P, 4) (x, y, vx, vy); ``still`` (S, 2) [m] points that may be people standing (the
+    legs of a person the tracker does not know), kept at the same distance. Returns a bool array
+    (K,)."""
     points = np.asarray(points, dtype=float)
     out = np.zeros(points.shape[0], dtype=bool)
     people = np.asarray(people, dtype=float).reshape(-1, 4)
-    if len(people) == 0 or min_distance <= 0.0 or points.size == 0:
+    still = np.zeros((0, 2)) if still is None else np.asarray(still, dtype=float).reshape(-1, 2)
+    if (len(people) == 0 and len(still) == 0) or min_distance <= 0.0 or points.size == 0:
         return out
     t = np.asarray(times, dtype=float)
     valid = np.isfinite(t)
@@ -197,6 +227,15 @@ def approaches(points, times, people, min_distance, tolerance=0.01, brake=None):
         qx, qy = px + vx * t, py + vy * t  # (K, T) the person at each step's time
         d = np.hypot(points[..., 0] - qx, points[..., 1] - qy)
         d0 = np.hypot(bx - qx, by - qy)
+        out |= np.any(valid & (d < min_distance) & (d < d0 - tolerance), axis=1)
+    if len(still):
+        from scipy.spatial import cKDTree
+
+        tree = cKDTree(still)
+        shape = points.shape[:2]
+        d = tree.query(points[..., :2].reshape(-1, 2), distance_upper_bound=min_distance)[0].reshape(shape)
+        base = np.column_stack([np.broadcast_to(bx, shape).ravel(), np.broadcast_to(by, shape).ravel()])
+        d0 = tree.query(base)[0].reshape(shape)
         out |= np.any(valid & (d < min_distance) & (d < d0 - tolerance), axis=1)
     return out
 

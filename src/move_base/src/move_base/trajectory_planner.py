@@ -602,8 +602,11 @@ class TrajectoryPlanner:
         self._plan_xy = np.empty((0, 2))
         self.last_trajectory = None  # the Trajectory chosen by the last find_best_command
         self.people = np.zeros((0, 4))  # (P, 4) x, y [m], vx, vy [m/s] in the costmap frame (min_person_distance)
+        self.still_people = np.zeros((0, 2))  # (S, 2) x, y [m]: what may be people the tracker does not know
         self.refused_for_people = 0  # trajectories the last scoring refused for min_person_distance alone
         self._brake = None  # (x, y, yaw, vx, acc_lim_x) of the cycle: braking is never refused for people
+        self._cost_without_people = None
+        self.blocked_by_people = False  # the last cycle's best forward motion was refused for a person
         self.reset_oscillation_flags()
         self.escaping = False
         self.prev_x = self.prev_y = 0.0  # [m] where the last in-place move was chosen
@@ -763,13 +766,15 @@ class TrajectoryPlanner:
             cost = cost + 0.3 * head
         cost = np.where(status == 0, cost, status.astype(float))
         self.refused_for_people = 0
-        if p.min_person_distance > 0.0 and len(self.people):
+        self._cost_without_people = cost
+        if p.min_person_distance > 0.0 and (len(self.people) or len(self.still_people)):
             from move_base.people_layer import approaches
 
             steps = np.asarray(steps, np.int64)
             index = np.arange(points.shape[1])[None, :]
             times = np.where(index < steps[:, None], index * np.asarray(dt, float).reshape(-1, 1), np.inf)
-            near = approaches(points, times, self.people, p.min_person_distance, brake=self._brake)
+            near = approaches(points, times, self.people, p.min_person_distance, brake=self._brake,
+                              still=self.still_people)
             self.refused_for_people = int(np.count_nonzero(near & (cost >= 0.0)))
             cost = np.where(near & (cost >= 0.0), PEOPLE_COST, cost)
         return cost, n_valid
@@ -809,6 +814,14 @@ class TrajectoryPlanner:
         pts, steps, dt = self.generate_trajectories(x, y, yaw, vx, vy, vth, samples)
         costs, n_valid = self.score_trajectories(costmap, pts, steps, dt)
         best = self._select(costmap, samples, kinds, raw_vth, dvth, costs, pts, n_valid, x, y, yaw)
+        # a person in the way: the forward motion that would win without them is refused for them,
+        # and what is left is turning on the spot or backing up
+        self.blocked_by_people = False
+        if self.refused_for_people and kinds[best] not in (FORWARD, STRAFE_FORWARD):
+            forward = np.flatnonzero((kinds == FORWARD) | (kinds == STRAFE_FORWARD))
+            pre = self._cost_without_people[forward]
+            legal = forward[pre >= 0]
+            self.blocked_by_people = bool(len(legal)) and costs[legal[np.argmin(pre[pre >= 0])]] < 0
         traj = Trajectory(float(samples[best, 0]), float(samples[best, 1]), float(samples[best, 2]),
                           float(costs[best]), pts[best, : n_valid[best]].copy())
         if kinds[best] == ESCAPE:

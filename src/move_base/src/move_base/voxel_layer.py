@@ -180,6 +180,15 @@ class VoxelLayer(ObstacleLayer):
     def clear_unknown_around(self, x, y, size):
         super().clear_unknown_around(x, y, size)  # columns keep their marks: unknown is not tracked
 
+    def band(self, z_band):
+        """Cells with a marked voxel overlapping the heights ``z_band`` = (low, high) [m]."""
+        lo = max(0, math.floor((z_band[0] - self.origin_z) / self.z_resolution))
+        hi = min(self.z_voxels - 1, math.floor((z_band[1] - self.origin_z) / self.z_resolution))
+        if hi < lo:
+            return np.zeros(self.bits.shape, dtype=bool)
+        mask = np.uint32(((1 << (hi + 1)) - 1) & ~((1 << lo) - 1))
+        return (self.bits & mask) != 0
+
     def voxel_centres(self):
         """(N, 3) centres [m] of the marked voxels, in the grid's frame (for a picture in rviz)."""
         g = self.grid
@@ -195,7 +204,7 @@ class VoxelLayer(ObstacleLayer):
         return np.column_stack([np.atleast_1d(wx), np.atleast_1d(wy), wz])
 
     # --- the update ------------------------------------------------------------------------------
-    def update(self):
+    def update(self, clear_discs=None):
         if self.grid is None:
             return
         for b in self.buffers.values():
@@ -204,6 +213,7 @@ class VoxelLayer(ObstacleLayer):
             if b.source.clearing:
                 for obs in b.observations:
                     self._clear(b.source, obs)
+        self._clear_discs(clear_discs)
         for b in self.buffers.values():
             if b.source.marking:
                 for obs in b.observations:
@@ -215,8 +225,8 @@ class VoxelLayer(ObstacleLayer):
         """Points (N, 3) [m] in voxel units (contiguous float64)."""
         g = self.grid
         p = np.asarray(points, dtype=float).reshape(-1, 3)
-        scale = np.array([1.0 / g.resolution, 1.0 / g.resolution, 1.0 / self.z_resolution])
-        return np.ascontiguousarray((p - np.array([g.origin_x, g.origin_y, self.origin_z])) * scale)
+        scale = np.array([g.resolution, g.resolution, self.z_resolution])  # divided, as Costmap2D.world_to_map
+        return np.ascontiguousarray((p - np.array([g.origin_x, g.origin_y, self.origin_z])) / scale)
 
     def _clear(self, src, obs):
         g = self.grid
