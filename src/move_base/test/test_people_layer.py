@@ -157,6 +157,8 @@ def test_still_points_count_as_people():
     toward, t = straight(0.5)
     legs = np.array([[1.0, 0.1], [1.0, -0.1]])
     assert approaches(toward[None], t[None], np.zeros((0, 4)), 0.6, still=legs).tolist() == [True]
+    short, t_short = straight(0.5, steps=9)  # to 0.4 m: 0.6 m from the legs, more than 0.6 - 0.1
+    assert approaches(short[None], t_short[None], np.zeros((0, 4)), 0.6, still=legs).tolist() == [False]
     assert approaches(toward[None], t[None], np.zeros((0, 4)), 0.6, still=legs + 3.0).tolist() == [False]
 
 

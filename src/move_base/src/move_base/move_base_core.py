@@ -72,9 +72,10 @@ PARAMS = ParamTable(
     Param("max_recovery_restarts", int, -1, "Florence: how often the recovery list may start over from its first "
           "entry after apparent progress (moved oscillation_distance, a plan or a command found again) before "
           "the goal is aborted (-1: no limit, ROS)", ge=-1),
-    Param("person_wait_timeout", float, 0.0, "Florence: when people stand in the way (no plan or no trajectory "
-          "with them, one without them), wait this long for them, replanning every cycle, before the recoveries "
-          "run; the robot goes on as soon as the way is free (0: no waiting, ROS)", unit="s", ge=0.0),
+    Param("person_wait_timeout", float, 0.0, "Florence: when people stand in the way (no plan, but one on the "
+          "maps alone; or no trajectory that keeps min_person_distance), wait this long for them, replanning "
+          "every cycle, before the recoveries run; the robot goes on as soon as the way is free (0: no waiting, "
+          "ROS)", unit="s", ge=0.0),
     Param("give_way_after", float, 0.0, "Florence: while waiting, after this long move to the nearest place out of "
           "the way of the people who block it, then wait there (a person may be waiting for the robot to "
           "leave their way; 0: never)", unit="s", ge=0.0),

@@ -122,15 +122,17 @@ def quaternion_problem(q):
 
 def goal_is_hopeless(layered, x, y):
     """True when no recovery can make (x, y) [m] reachable: off a global costmap that covers the
-    static map, or on a lethal cell of the static map itself (a wall, furniture)."""
+    static map, or on a lethal cell of the static map itself (a wall, furniture) or of the
+    keep-out map (a place the robot must not enter)."""
     if layered.rolling_window:
         return False
     if not layered.costmap.contains(x, y):
         return True
-    static = getattr(layered, "static", None)
-    if static is None or static.grid is None:
-        return False
-    return static.grid.cost_at(x, y) == LETHAL_OBSTACLE
+    for layer in (getattr(layered, "static", None), getattr(layered, "keepout", None)):
+        if layer is not None and layer.grid is not None and layer.pose is None and \
+                layer.grid.cost_at(x, y) == LETHAL_OBSTACLE:
+            return True
+    return False
 
 
 def path_msg(poses, frame, stamp):

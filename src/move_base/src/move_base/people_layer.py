@@ -184,6 +184,9 @@ class ProxemicLayer:
 GIVE_WAY_MIN_DISTANCE = 1.0  # [m]
 GIVE_WAY_KEEP_OFF = 0.75  # [m]
 GIVE_WAY_MAX_COST = 200
+STILL_MARGIN = 0.1  # [m] a leg's distance from a person's centre
+
+
 def braking_positions(times, start, speed, acc):
     """Positions (x, y) [m] at ``times`` [s] (any shape) of a robot braking from ``speed`` [m/s]
     at ``acc`` [m/s^2] straight along its heading from ``start`` = (x, y, yaw): what the robot
@@ -208,8 +211,9 @@ def approaches(points, times, people, min_distance, tolerance=0.01, brake=None, 
 
     ``points`` (K, T, >= 2) [m], ``times`` (K, T) [s] (np.inf past a trajectory's last step),
     ``people`` (P, 4) (x, y, vx, vy); ``still`` (S, 2) [m] points that may be people standing (the
-    legs of a person the tracker does not know), kept at the same distance. Returns a bool array
-    (K,)."""
+    legs of a person the tracker does not know), kept at ``min_distance`` - STILL_MARGIN (a leg is
+    about 0.1 m from the person's centre, and nearest when the robot comes from the side, where
+    the centre is then farther still). Returns a bool array (K,)."""
     points = np.asarray(points, dtype=float)
     out = np.zeros(points.shape[0], dtype=bool)
     people = np.asarray(people, dtype=float).reshape(-1, 4)
@@ -233,10 +237,11 @@ def approaches(points, times, people, min_distance, tolerance=0.01, brake=None, 
 
         tree = cKDTree(still)
         shape = points.shape[:2]
-        d = tree.query(points[..., :2].reshape(-1, 2), distance_upper_bound=min_distance)[0].reshape(shape)
+        near = min_distance - STILL_MARGIN
+        d = tree.query(points[..., :2].reshape(-1, 2), distance_upper_bound=near)[0].reshape(shape)
         base = np.column_stack([np.broadcast_to(bx, shape).ravel(), np.broadcast_to(by, shape).ravel()])
         d0 = tree.query(base)[0].reshape(shape)
-        out |= np.any(valid & (d < min_distance) & (d < d0 - tolerance), axis=1)
+        out |= np.any(valid & (d < near) & (d < d0 - tolerance), axis=1)
     return out
 
 

@@ -110,8 +110,9 @@ PARAMS = ParamTable(
     Param("turn_before_tolerance", bool, False, "Florence, with rotate_while_braking: brake and turn before "
           "xy_goal_tolerance when a simulation of it ends well inside the tolerance and reaches the goal sooner"),
     Param("min_person_distance", float, 0.0, "Florence: no trajectory brings the robot's centre nearer than this "
-          "to a tracked person (walking on at their velocity) than standing still would; turning on the spot and "
-          "moving away stay allowed (0: off, ROS)", unit="m", ge=0.0),
+          "to a tracked person (walking on at their velocity), or nearer than this less 0.1 m to a leg-height "
+          "return the maps do not explain, than braking would; braking, turning on the spot and moving away "
+          "stay allowed (0: off, ROS)", unit="m", ge=0.0),
 )
 """TrajectoryPlannerROS's parameters (``~TrajectoryPlannerROS/``: ROS names and defaults, plus
 Florence's three, off by default, which is ROS's behaviour)."""
@@ -801,7 +802,8 @@ class TrajectoryPlanner:
 
         Returns:
             (cmd (vx, vy, vth), cost, points (N, 3)): cost < 0 means no legal trajectory and a
-            zero command. An escape (backing up) returns cost 1.0 even when it collides, as ROS.
+            zero command. An escape (backing up) returns cost 1.0 even when it collides, as ROS, if
+            its last pose is clear (Florence: ROS backs into what is behind the robot too).
         """
         plan_xy = np.asarray(plan_xy, dtype=float).reshape(-1, 2)
         self.update_plan(costmap, plan_xy, x, y, yaw)
@@ -825,7 +827,9 @@ class TrajectoryPlanner:
         traj = Trajectory(float(samples[best, 0]), float(samples[best, 1]), float(samples[best, 2]),
                           float(costs[best]), pts[best, : n_valid[best]].copy())
         if kinds[best] == ESCAPE:
-            traj.cost = self._escape_bookkeeping(traj.cost, x, y, yaw)
+            end = pts[best, max(int(steps[best]) - 1, 0)]
+            ends_free = footprint_cost(costmap, float(end[0]), float(end[1]), float(end[2]), self.footprint) >= 0
+            traj.cost = self._escape_bookkeeping(traj.cost, x, y, yaw, ends_free)
         self.last_trajectory = traj
         if traj.cost < 0:
             return (0.0, 0.0, 0.0), traj.cost, traj.points
@@ -942,8 +946,9 @@ class TrajectoryPlanner:
                 or abs(angles.diff(yaw, self.escape_theta)) > p.escape_reset_theta):
             self.escaping = False
 
-    def _escape_bookkeeping(self, cost, x, y, yaw):
-        """State updates when backing up; returns the escape's reported cost."""
+    def _escape_bookkeeping(self, cost, x, y, yaw, ends_free=True):
+        """State updates when backing up; returns the escape's reported cost. ``ends_free``: the
+        backing trajectory's last pose is legal."""
         if math.hypot(x - self.prev_x, y - self.prev_y) > self.params.oscillation_reset_dist:
             self.reset_oscillation_flags()
         if not self.escaping and cost > -2.0:
@@ -951,5 +956,6 @@ class TrajectoryPlanner:
             self.escaping = True
         self._maybe_end_escape(x, y, yaw)
         # Back up even when the footprint touches an obstacle (ROS: "even when the static map shows
-        # it as blocked").
-        return 1.0 if cost == -1.0 else cost
+        # it as blocked"), so a robot whose nose touches something can back off it; Florence: only
+        # when backing ends clear of obstacles (ROS backed the robot into a table's corner behind it)
+        return 1.0 if cost == -1.0 and ends_free else cost
