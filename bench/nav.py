@@ -34,6 +34,7 @@ import argparse
 import contextlib
 import json
 import os
+import signal
 import subprocess
 import sys
 import time
@@ -117,12 +118,14 @@ def main():
                    f"x:={START[0]}", f"y:={START[1]}", f"yaw:={START[2]}", f"sim_maps:={str(args.sim_maps).lower()}"]
     stack = roslaunch(master, "turtlebot_control", "turtlebot_2dnav_control.launch", *launch_args,
                       log_path=RESULTS / f"{name}.stack.log")
-    busy = []
+    busy, legs = [], []
     try:
         import rospy
         from florence_eval.nav_session import NavSession
 
         rospy.init_node("bench", anonymous=False, disable_signals=True)
+        for sig in (signal.SIGINT, signal.SIGTERM):  # stop the stack and the master on the way out
+            signal.signal(sig, lambda *_: sys.exit(f"bench/nav.py: stopped by signal after {len(legs)} legs"))
         session = NavSession()
         if not session.wait_ready(180.0):
             raise SystemExit(f"move_base did not come up:\n{stack.output()}")
@@ -131,7 +134,6 @@ def main():
         pid = node_pid(master.uri, "/move_base")
         scene, body = nav_metrics.load_scene(), nav_metrics.robot_body()
         busy = start_busy(args.busy_cores)
-        legs = []
         goals = nav_metrics.random_goals(ideal.grid, args.pairs * 3, args.clearance, rng)
         cpu0, sim0, wall0, load0 = cpu_seconds(pid), session.sim_now(), time.monotonic(), os.getloadavg()[0]
         loads = []

@@ -424,3 +424,14 @@ def test_no_give_way_when_there_is_nowhere_to_go():
     outcome, _, _, results = run_people(core, people)
     assert outcome == "aborted" and people.give_way_asked == 3  # at 3, 6 and 9 s of waiting
     assert all(r.cmd == (0.0, 0.0, 0.0) for now, state, r in results if state == "WAITING")
+
+
+def test_while_waiting_a_turn_toward_the_people_is_not_going_on():
+    from move_base.move_base_core import _goes_on
+
+    plan_ahead = np.array([[0.0, 0.0, 0.0], [0.5, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    plan_behind = np.array([[0.0, 0.0, math.pi], [-0.5, 0.0, math.pi], [-1.0, 0.0, math.pi]])
+    assert _goes_on((0.2, 0.0, 0.0), (0.0, 0.0, 0.0), plan_ahead)
+    assert not _goes_on((0.0, 0.0, 0.8), (0.0, 0.0, 0.0), plan_ahead)
+    assert _goes_on((0.0, 0.0, 0.8), (0.0, 0.0, 0.0), plan_behind)  # it must turn first
+    assert _goes_on((0.0, 0.0, 0.8), (0.0, 0.0, 0.0), plan_ahead[:1])  # at the goal: its yaw

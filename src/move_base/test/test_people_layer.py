@@ -10,7 +10,14 @@ import pytest
 from move_base.costmap_2d import FREE_SPACE, INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, NO_INFORMATION, Costmap2D
 from move_base.layers import KeepoutLayer, LayeredCostmap, ObservationSource
 from move_base.navfn import compute_potential, translate_costs
-from move_base.people_layer import Person, ProxemicLayer, approaches, braking_positions, give_way_cells
+from move_base.people_layer import (
+    Person,
+    ProxemicLayer,
+    RecentPoints,
+    approaches,
+    braking_positions,
+    give_way_cells,
+)
 
 pytestmark = pytest.mark.unit
 
@@ -55,19 +62,34 @@ def test_a_walker_stretches_the_cost_ahead_only():
 
 def test_the_person_is_carried_along_and_lapses_when_the_track_is_gone():
     layer = ProxemicLayer(keep_time=0.75)
-    layer.set_people([Person(0.0, 0.0, 1.0, 0.0, seen=5.0)], stamp=5.0)
-    people, _ = layer.current(5.5)
-    assert people[0, :2] == pytest.approx([0.5, 0.0])  # walked on 0.5 s
+    layer.set_people([Person(0.0, 0.0, 1.0, 0.0, seen=5.0, id=1)], stamp=5.0)
+    people, ids = layer.current(5.4)
+    assert people[0, :2] == pytest.approx([0.4, 0.0]) and ids == [1]  # walked on 0.4 s
+    assert layer.current(5.7)[0][0, 0] == pytest.approx(0.5)  # carried 0.5 s at most
     assert len(layer.current(5.76)[0]) == 0  # not seen for more than keep_time
     c = grid()
     layer.update_costs(c, now=6.0)
     assert int(c.costs.max()) == 0
-    # a message without the person: gone at once
-    layer.set_people([Person(0.0, 0.0, 0.0, 0.0, seen=7.0)], stamp=7.0)
-    layer.set_people([], stamp=7.1)
+    # the tracker's next messages no longer hold the person (its sensors lost them): they stay
+    # until keep_time after they were last seen
+    layer.set_people([Person(0.0, 0.0, 0.0, 0.0, seen=7.0, id=2)], stamp=7.0)
+    layer.set_people([], stamp=7.3)
+    assert layer.current(7.5)[1] == [2]
+    layer.set_people([], stamp=7.8)
+    assert layer.current(7.8)[1] == []
     c = grid()
-    layer.update_costs(c, now=7.1)
+    layer.update_costs(c, now=7.8)
     assert int(c.costs.max()) == 0
+
+
+def test_recent_points_are_remembered_for_a_moment():
+    mem = RecentPoints(keep=1.5)
+    mem.add(10.0, [[1.0, 2.0]])
+    mem.add(10.5, np.zeros((0, 2)))
+    mem.add(11.0, [[3.0, 4.0], [5.0, 6.0]])
+    assert len(mem.get(11.0)) == 3
+    assert mem.get(11.6).tolist() == [[3.0, 4.0], [5.0, 6.0]]
+    assert len(mem.get(13.0)) == 0
 
 
 def test_nan_people_are_left_out():

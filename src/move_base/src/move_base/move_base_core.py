@@ -33,6 +33,9 @@ import logging
 import math
 from dataclasses import dataclass, field
 
+import numpy as np
+
+from florence_common import angles
 from florence_common.params import Param, ParamTable
 
 log = logging.getLogger(__name__)
@@ -122,6 +125,22 @@ class _GoalState:
     gave_way: int = 0  # give-way moves in this wait
     wait_trigger: str = PLANNING_R
     wait_text: str = ""  # why the robot waited, once it waited person_wait_timeout out
+
+
+def _goes_on(cmd, pose, poses, ahead=0.5, turn=1.0):
+    """Whether a command found while waiting for people goes on toward the goal: it drives
+    forward, or the plan starts more than ``turn`` [rad] off the robot's heading (the robot must
+    turn first). A turn on the spot with the plan ahead, toward the people, would only take the
+    people out of the sensors' view."""
+    if cmd[0] > 0.01:
+        return True
+    poses = np.asarray(poses, dtype=float).reshape(-1, 3)
+    d = np.hypot(poses[:, 0] - pose[0], poses[:, 1] - pose[1])
+    far = np.nonzero(d >= ahead)[0]
+    if len(far) == 0:
+        return True  # at the goal: turning to its yaw
+    tx, ty = poses[far[0], :2]
+    return abs(angles.diff(math.atan2(ty - pose[1], tx - pose[0]), pose[2])) > turn
 
 
 class MoveBaseCore:
@@ -361,6 +380,8 @@ class MoveBaseCore:
             g.have_plan = True
             self.controller.set_plan(plan.poses)
             ok, cmd, reason = self.controller.compute_velocity(tuple(pose))
+            if ok and not _goes_on(cmd, pose, plan.poses):
+                ok, reason = False, "only a turn on the spot toward the people"
             if ok:
                 g.planning_retries = 0
                 g.last_valid_plan = g.last_valid_control = g.last_oscillation_reset = now

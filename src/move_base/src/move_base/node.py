@@ -53,7 +53,13 @@ from move_base.layers import footprint_cost
 from move_base.local_planner import NO_VALID_TRAJECTORY_PEOPLE, LocalPlanner
 from move_base.move_base_core import CLEARING, WAITING, MoveBaseCore
 from move_base.navfn import NavfnPlanner, compute_potential, translate_costs
-from move_base.people_layer import GIVE_WAY_KEEP_OFF, GIVE_WAY_MAX_COST, GIVE_WAY_MIN_DISTANCE, give_way_cells
+from move_base.people_layer import (
+    GIVE_WAY_KEEP_OFF,
+    GIVE_WAY_MAX_COST,
+    GIVE_WAY_MIN_DISTANCE,
+    RecentPoints,
+    give_way_cells,
+)
 from move_base.recovery import (
     CLEAR_COSTMAP_PARAMS,
     ClearCostmapRecovery,
@@ -177,10 +183,9 @@ class ControllerAdapter:
         plan_local = np.asarray(pose2d.compose(to_local, node.local_planner.global_plan)).reshape(-1, 3)
         still = None
         if node.local_planner.params.min_person_distance > 0.0:
-            # leg-height marks the maps do not have, near the robot: people the tracker may not know
-            glob = node.planner_costmap
-            with glob.lock:
-                still = glob.layered.unmapped_marks(pose[0], pose[1], 2.5)
+            # leg-height returns the maps do not have, near the robot, seen in the last 1.5 s: people
+            # the tracker may not know (remembered: the robot may have turned away from them)
+            still = node.unmapped_near(pose, 2.5)
             still = pose2d.transform_points(to_local, still) if len(still) else still
         with local.lock:
             if local.layered.people is not None:
@@ -216,11 +221,9 @@ class PeopleAdapter:
             return layer.current(rospy.get_time())[0]
 
     def _blockers(self, pose, radius):
-        """(B, 4) the tracked people and the unmapped leg-height marks (still) within ``radius`` [m]."""
+        """(B, 4) the tracked people and the unmapped leg-height returns (still) within ``radius`` [m]."""
         people = self._people()
-        costmap = self.node.planner_costmap
-        with costmap.lock:
-            still = costmap.layered.unmapped_marks(pose[0], pose[1], radius)
+        still = self.node.unmapped_near(pose, radius)
         rows = [people[np.hypot(people[:, 0] - pose[0], people[:, 1] - pose[1]) <= radius],
                 np.column_stack([still, np.zeros((len(still), 2))])]
         return np.concatenate(rows).reshape(-1, 4), len(rows[0])
@@ -324,6 +327,8 @@ class MoveBaseNode:
 
         self._velocity = (0.0, 0.0, 0.0)
         self._velocity_lock = threading.Lock()
+        self.recent_still = RecentPoints(1.5)
+        self._still_lock = threading.Lock()
         rospy.Subscriber("odom", Odometry, self._odom_cb, queue_size=1)
 
         self.planner_costmap.start()
@@ -377,6 +382,18 @@ class MoveBaseNode:
                                           acc_lim_th=p.acc_lim_theta, max_rotational_vel=p.max_vel_theta,
                                           min_in_place_rotational_vel=p.min_in_place_vel_theta))
         return out
+
+    def unmapped_near(self, pose, radius):
+        """(N, 2) [m] in the global frame: the leg-height returns the maps do not explain within
+        ``radius`` of ``pose``, seen now or in the last 1.5 s (LayeredCostmap.unmapped_marks)."""
+        costmap = self.planner_costmap
+        now = rospy.get_time()
+        with costmap.lock:
+            seen = costmap.layered.unmapped_marks(pose[0], pose[1], max(radius, 2.5))
+        with self._still_lock:
+            self.recent_still.add(now, seen)
+            pts = self.recent_still.get(now)
+        return pts[np.hypot(pts[:, 0] - pose[0], pts[:, 1] - pose[1]) <= radius]
 
     def _local_footprint_cost(self, points):
         local = self.controller_costmap

@@ -30,6 +30,8 @@ import numpy as np
 from florence_common.params import Param, ParamTable
 from move_base.costmap_2d import LETHAL_OBSTACLE, NO_INFORMATION
 
+CARRY_LIMIT = 0.5  # [s] how far along their velocity a person's position is carried
+
 PROXEMIC_PARAMS = ParamTable(
     Param("amplitude", float, 77.0, "cost at a person's centre", ge=0.0, le=252.0),
     Param("covariance", float, 0.25, "variance of the Gaussian across the heading and behind", unit="m^2", gt=0.0),
@@ -74,27 +76,30 @@ class ProxemicLayer:
         self.lethal_radius = float(lethal_radius)
         self.trail_time = float(trail_time)
         self.trail_radius = float(trail_radius)
-        self._people = []  # Person list of the last message
-        self._stamp = None  # [s] its time
+        self._people = {}  # id -> (Person, stamp [s] of the message it came in)
+        self._stamp = None  # [s] the newest message's time
         self._trail = []  # (t [s], x [m], y [m]) of every tracked person of the last trail_time
 
     def set_people(self, people, stamp):
         """The people of the newest tracker message (an iterable of :class:`Person`), ``stamp`` [s]
-        its time. People with a non-finite field are dropped; returns how many."""
-        kept, dropped = [], 0
+        its time. People with a non-finite field are dropped; returns how many. A person the
+        message no longer holds is kept until keep_time after they were last seen (the tracker drops
+        a track its sensors lost, as the robot turns away from a person: the person is still there)."""
+        dropped = 0
+        stamp = float(stamp)
         for p in people:
             values = (p.x, p.y, p.vx, p.vy, p.seen)
             if all(math.isfinite(v) for v in values):
-                kept.append(p)
+                self._people[p.id] = (p, stamp)
+                self._trail.append((p.seen, p.x, p.y))
             else:
                 dropped += 1
-        self._people = kept
-        self._stamp = float(stamp)
-        self._trail.extend((p.seen, p.x, p.y) for p in kept)
+        self._stamp = stamp
+        self._people = {k: v for k, v in self._people.items() if stamp - v[0].seen <= self.keep_time}
         return dropped
 
     def clear(self):
-        self._people = []
+        self._people = {}
         self._stamp = None
         self._trail = []
 
@@ -115,18 +120,17 @@ class ProxemicLayer:
         return np.column_stack([xy, np.full(len(xy), self.trail_radius)])
 
     def current(self, now=None):
-        """The people still tracked at ``now`` [s] (None: all of the last message), each moved along
-        its velocity from the message's time to ``now`` (at most keep_time): (N, 4) array of (x,
-        y, vx, vy) and their ids."""
-        if not self._people:
-            return np.zeros((0, 4)), []
+        """The people at ``now`` [s] (None: as last reported) not lapsed (seen within keep_time),
+        each moved along its velocity from the time of the message that held it to ``now`` (at
+        most CARRY_LIMIT: a lost track's velocity is not a forecast): (N, 4) array of (x, y, vx,
+        vy) and their ids."""
         rows, ids = [], []
-        for p in self._people:
+        for pid, (p, stamp) in self._people.items():
             if now is not None and now - p.seen > self.keep_time:
                 continue
-            ahead = 0.0 if now is None else min(max(now - self._stamp, 0.0), self.keep_time)
+            ahead = 0.0 if now is None else min(max(now - stamp, 0.0), CARRY_LIMIT)
             rows.append((p.x + p.vx * ahead, p.y + p.vy * ahead, p.vx, p.vy))
-            ids.append(p.id)
+            ids.append(pid)
         return np.array(rows, dtype=float).reshape(-1, 4), ids
 
     def radius(self, speed=0.0):
@@ -243,6 +247,26 @@ def approaches(points, times, people, min_distance, tolerance=0.01, brake=None, 
         d0 = tree.query(base)[0].reshape(shape)
         out |= np.any(valid & (d < near) & (d < d0 - tolerance), axis=1)
     return out
+
+
+class RecentPoints:
+    """Points [m] seen within the last ``keep`` [s]: the leg-height returns of people the tracker
+    does not know stay remembered for a moment after the robot turned away from them."""
+
+    def __init__(self, keep=1.5):
+        self.keep = float(keep)
+        self._rows = []  # (t [s], (N, 2) points)
+
+    def add(self, now, points):
+        self._rows = [(t, p) for t, p in self._rows if 0.0 <= now - t <= self.keep]
+        points = np.asarray(points, dtype=float).reshape(-1, 2)
+        if len(points):
+            self._rows.append((float(now), points))
+
+    def get(self, now):
+        """The points of the last ``keep`` seconds before ``now`` [s], (N, 2)."""
+        rows = [p for t, p in self._rows if 0.0 <= now - t <= self.keep]
+        return np.concatenate(rows) if rows else np.zeros((0, 2))
 
 
 def give_way_cells(potential, costmap, robot_xy, people, keep_off, min_distance):
