@@ -137,6 +137,34 @@ def main():
         goals = nav_metrics.random_goals(ideal.grid, args.pairs * 3, args.clearance, rng)
         cpu0, sim0, wall0, load0 = cpu_seconds(pid), session.sim_now(), time.monotonic(), os.getloadavg()[0]
         loads = []
+        targets = (nav_metrics.TARGETS_BUSY if args.busy_cores else
+                   nav_metrics.TARGETS_NOBODY if args.people == "none" else nav_metrics.TARGETS)
+
+        def report(partial):
+            """The run's figures so far, written to <name>.json (and the picture at the end)."""
+            cpu = cpu_seconds(pid) - cpu0
+            sim_total, wall_total = session.sim_now() - sim0, time.monotonic() - wall0
+            result = {
+                **nav_metrics.summarise(legs, targets),
+                "partial": partial,
+                "variant": {"people": args.people, "sim_maps": args.sim_maps, "busy_cores": args.busy_cores},
+                "launch_args": launch_args,
+                "move_base_cpu_fraction": cpu / wall_total, "move_base_cpu_s_per_sim_s": cpu / sim_total,
+                "sim_time_s": sim_total, "wall_time_s": wall_total, "rtf": args.rtf,
+                "achieved_rtf": sim_total / wall_total, "seed": args.seed,
+                "load_average_1min": {"start": load0, "median": float(np.median(loads)) if loads else None,
+                                      "max": max(loads) if loads else None},
+                "cpus": os.cpu_count(),
+            }
+            if not partial:
+                nav_metrics.plot_legs(
+                    RESULTS / f"{name}.png", ideal.grid, legs,
+                    f"{name}: {result['succeeded']}/{len(legs)} goals, {result['collisions']} collisions, median "
+                    f"time/ideal {result['time_ratio_median'] or float('nan'):.2f}, "
+                    f"{result['legs_nearer_than_0_5_m_driving']} legs < 0.5 m from a person")
+            (RESULTS / f"{name}.json").write_text(json.dumps({**result, "legs": legs}, indent=1))
+            return result
+
         for goal in goals:
             if len(legs) >= args.pairs:
                 break
@@ -164,28 +192,8 @@ def main():
             print(f"{len(legs):3d}: {state:9s} {took:6.1f} s plan {plan_m:5.2f} m ratio {leg['ratio']:4.2f} "
                   f"gap {1000 * (leg['body_clearance_m'] or 0):3.0f} mm person "
                   f"{'-' if near is None else f'{near:.2f}'} m {text if state != 'SUCCEEDED' else ''}", flush=True)
-        cpu = cpu_seconds(pid) - cpu0
-        sim_total, wall_total = session.sim_now() - sim0, time.monotonic() - wall0
-
-        targets = (nav_metrics.TARGETS_BUSY if args.busy_cores else
-                   nav_metrics.TARGETS_NOBODY if args.people == "none" else nav_metrics.TARGETS)
-        result = {
-            **nav_metrics.summarise(legs, targets),
-            "variant": {"people": args.people, "sim_maps": args.sim_maps, "busy_cores": args.busy_cores},
-            "launch_args": launch_args,
-            "move_base_cpu_fraction": cpu / wall_total, "move_base_cpu_s_per_sim_s": cpu / sim_total,
-            "sim_time_s": sim_total, "wall_time_s": wall_total, "rtf": args.rtf,
-            "achieved_rtf": sim_total / wall_total, "seed": args.seed,
-            "load_average_1min": {"start": load0, "median": float(np.median(loads)) if loads else None,
-                                  "max": max(loads) if loads else None},
-            "cpus": os.cpu_count(),
-        }
-        nav_metrics.plot_legs(
-            RESULTS / f"{name}.png", ideal.grid, legs,
-            f"{name}: {result['succeeded']}/{len(legs)} goals, {result['collisions']} collisions, median "
-            f"time/ideal {result['time_ratio_median'] or float('nan'):.2f}, "
-            f"{result['legs_nearer_than_0_5_m_driving']} legs < 0.5 m from a person")
-        (RESULTS / f"{name}.json").write_text(json.dumps({**result, "legs": legs}, indent=1))
+            report(partial=True)  # what a long run has so far survives an interruption
+        result = report(partial=False)
         print(json.dumps({k: v for k, v in result.items() if k != "failures"}, indent=2))
         print(f"wrote {RESULTS / (name + '.json')} and {RESULTS / (name + '.png')}")
         session.close()
