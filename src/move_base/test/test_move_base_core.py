@@ -303,6 +303,9 @@ class FakePeople:
         self.give_way_asked += 1
         return self.aside
 
+    def clear(self, pose, poses):
+        return not self.blocked(self.now)
+
     def plan_to(self, start, pose):
         return GOOD
 
@@ -414,6 +417,21 @@ def test_giving_way_after_give_way_after():
     assert 4.0 <= first_ask <= 4.5  # waited from 1.0 s, gave way 3 s later
     # the way free again: back to the goal's plan, not giving way
     assert ctrl.giving_way[-1] is False and results[-1][1] == CONTROLLING
+
+
+def test_waiting_goes_on_only_with_nobody_close_in_front():
+    """The way round the person exists (the plan and the controller agree), but the person stands
+    close in front: the robot keeps waiting rather than creep past them."""
+    people = FakePeople(lambda now: 1.0 <= now < 9.0)
+    people.clear = lambda pose, poses: people.now >= 15.0
+    people.blocking = lambda pose, goal, reason: "" if people.now >= 15.0 else "a person at (1.00, 0.00) ..."
+    ctrl = GivingWayController(people, reached_after=None)
+    core = MoveBaseCore(core_params(person_wait_timeout=60.0), WaitingPlanner(people), ctrl, [], people=people)
+    core.set_goal((5.0, 0.0, 0.0), 0.0, POSE)
+    results = run_people(core, people, n=100)[3]
+    waiting = [now for now, state, _ in results if state == "WAITING"]
+    assert min(waiting) < 1.5 and 14.5 < max(waiting) < 15.5
+    assert results[-1][1] == CONTROLLING
 
 
 def test_no_give_way_when_there_is_nowhere_to_go():

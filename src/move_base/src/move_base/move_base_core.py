@@ -17,14 +17,17 @@ The collaborators are injected (duck-typed), so the machine is tested with fakes
     recoveries: objects with ``name`` and ``start(now, pose)``, ``step(now, pose) -> (done, cmd)``
     sensors_current() -> (ok, reason)
     people (optional): blocking(pose, goal, reason) -> why people stand in the way after a failed
-        plan (reason None) or control (the controller's reason), or ''; give_way(pose) -> a pose
-        (x, y, yaw) out of their way, or None; plan_to(start, pose) -> PlanResult-like.
+        plan (reason None) or control (the controller's reason), or ''; clear(pose, poses) -> whether
+        nobody stands close in front along the plan ``poses``; give_way(pose) -> a pose (x, y, yaw)
+        out of their way, or None; plan_to(start, pose) -> PlanResult-like.
 
 Florence's WAITING state (``person_wait_timeout`` > 0): a plan or a control that fails because
 people stand in the way (``people.blocking``) makes the robot stand and replan every cycle
 instead of counting toward the planner's or controller's patience; it goes on (CONTROLLING) as
-soon as a plan and a valid command exist again. After ``give_way_after`` it drives to ``people.give_way`` (a place
-out of the people's way: a person may be waiting for the robot) and waits there. After
+soon as a plan and a valid command exist again and nobody stands close in front (``people.clear``:
+a way round a person close in front would creep past them). After ``give_way_after`` it drives to
+``people.give_way`` (a place out of the people's way: a person may be waiting for the robot) and
+waits there. After
 ``person_wait_timeout`` without a valid command the usual recoveries run, and the goal is not
 waited for again until the robot moves on.
 """
@@ -382,6 +385,9 @@ class MoveBaseCore:
             ok, cmd, reason = self.controller.compute_velocity(tuple(pose))
             if ok and not _goes_on(cmd, pose, plan.poses):
                 ok, reason = False, "only a turn on the spot toward the people"
+            if ok and not self.people.clear(tuple(pose), plan.poses):
+                # a way round a person close in front is no way on: it would creep past them
+                ok, reason = False, "a person is close in front"
             if ok:
                 g.planning_retries = 0
                 g.last_valid_plan = g.last_valid_control = g.last_oscillation_reset = now

@@ -255,6 +255,25 @@ class PeopleAdapter:
             result = self.node.global_planner.make_plan(free, pose, goal, start_clearance=costmap.inscribed_radius)
         return f"{near} stands in the way (the map has a way)" if result.ok else ""
 
+    def clear(self, pose, poses):
+        """Whether nobody is close in front: no tracked person within min_person_distance + 0.1 m
+        and no leg-height return within min_person_distance of the robot, in the half-plane ahead
+        along the plan ``poses`` (where it goes next), so that waiting ends with room to go on."""
+        near = self.node.local_planner.params.min_person_distance
+        blockers, tracked = self._blockers(pose, near + 0.1)
+        if not len(blockers):
+            return True
+        poses = np.asarray(poses, dtype=float).reshape(-1, 3)
+        d_plan = np.hypot(poses[:, 0] - pose[0], poses[:, 1] - pose[1])
+        ahead = np.nonzero(d_plan >= 0.3)[0]
+        tx, ty = poses[ahead[0], :2] if len(ahead) else poses[-1, :2]
+        ux, uy = tx - pose[0], ty - pose[1]
+        rx, ry = blockers[:, 0] - pose[0], blockers[:, 1] - pose[1]
+        d = np.hypot(rx, ry)
+        reach = np.where(np.arange(len(blockers)) < tracked, near + 0.1, near)
+        in_front = rx * ux + ry * uy > 0.0
+        return not np.any((d < reach) & in_front)
+
     def give_way(self, pose):
         """A pose (x, y, yaw) out of the way of the people (and unmapped marks) within 2 m
         (people_layer.give_way_cells on a navfn potential from the robot over the global costmap),
