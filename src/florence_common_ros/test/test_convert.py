@@ -6,6 +6,8 @@ import numpy as np
 import pytest
 from geometry_msgs.msg import PoseWithCovarianceStamped, Quaternion, TransformStamped
 from nav_msgs.msg import Odometry
+from sensor_msgs import point_cloud2
+from sensor_msgs.msg import PointField
 from std_msgs.msg import Header
 
 from florence_common_ros import convert
@@ -69,3 +71,23 @@ def test_padded_rows_are_read_right():
     msg.data = np.hstack([rows, np.full((3, 8), 0xAB, np.uint8)]).tobytes()
     msg.step = 16
     assert np.array_equal(convert.image_to_array(msg), array)
+
+
+# --- point clouds (from pointcloud_to_laserscan, which shares this decoder with move_base) -----------
+def test_cloud_decoding_with_extra_fields():
+    fields = [PointField("x", 0, PointField.FLOAT32, 1), PointField("y", 4, PointField.FLOAT32, 1),
+              PointField("z", 8, PointField.FLOAT32, 1), PointField("rgb", 16, PointField.FLOAT32, 1)]
+    pts = [(1.0, 2.0, 3.0, 0.0), (4.0, 5.0, 6.0, 0.0)]
+    msg = point_cloud2.create_cloud(Header(frame_id="f"), fields, pts)
+    assert msg.point_step == 20
+    assert convert.cloud_to_points(msg) == pytest.approx(np.array([[1, 2, 3], [4, 5, 6]], np.float32))
+
+
+def test_bad_clouds_are_clear_errors():
+    msg = point_cloud2.create_cloud_xyz32(Header(frame_id="f"), [(1.0, 2.0, 3.0)] * 4)
+    msg.data = msg.data[:-1]
+    with pytest.raises(ValueError, match="too short"):
+        convert.cloud_to_points(msg)
+    msg = point_cloud2.create_cloud(Header(frame_id="f"), [PointField("x", 0, PointField.FLOAT32, 1)], [(1.0,)])
+    with pytest.raises(ValueError, match="'y'"):
+        convert.cloud_to_points(msg)

@@ -51,6 +51,56 @@ def test_clearance_spread_skips_legs_without_a_track():
     assert nav_metrics.clearance_spread([None]) is None
 
 
+# --- people (issue 21) ------------------------------------------------------------------------------
+def test_people_near_counts_the_least_distance_while_driving():
+    # the robot drives east along y 0 at 0.5 m/s for 2 s, then stands; a person walks toward where
+    # it stands and stops 0.4 m from it
+    t = np.arange(0.0, 4.0, 0.1)
+    x = np.minimum(0.5 * t, 1.0)
+    v = np.where(t < 2.0, 0.5, 0.0)
+    track = np.column_stack([t, x, np.zeros_like(t), np.zeros_like(t), v, np.zeros_like(t)])
+    tp = np.arange(0.0, 4.01, 0.5)
+    person = np.column_stack([tp, np.maximum(3.0 - 0.8 * tp, 1.4), np.zeros_like(tp)])
+    near = nav_metrics.people_near(track, {"bob": person}, 0.17, {"bob": 0.2})
+    assert near["person_distance_m"] == pytest.approx(0.4, abs=1e-6)  # at rest: not while driving
+    driving = np.hypot(x - np.interp(t, tp, person[:, 1]), 0.0)[v >= 0.03].min()
+    assert near["person_distance_driving_m"] == pytest.approx(driving)
+    assert near["person_clearance_m"] == pytest.approx(0.4 - 0.17 - 0.2)
+    assert near["person_nearest_driving_at"][4] == "bob"
+    # nobody recorded, or a person only before the track began
+    assert nav_metrics.people_near(track, {}, 0.17)["person_distance_m"] is None
+    late = {"x": np.array([[10.0, 0.0, 0.0], [11.0, 0.0, 0.0]])}
+    assert nav_metrics.people_near(track, late, 0.17)["person_distance_m"] is None
+
+
+def test_leg_record_body_clearance_counts_people(world_and_body):
+    scene, body = world_and_body
+    track = np.array([[0.0, 1.2, 3.0, 0.0, 0.2, 0.0], [0.5, 1.3, 3.0, 0.0, 0.2, 0.0]])
+    people = {"alice": np.array([[0.0, 1.8, 3.0], [1.0, 1.8, 3.0]])}
+    leg = nav_metrics.leg_record((1.3, 3.0, 0.0), "SUCCEEDED", "", 0.5, 0.1, 0.1, 0.0, track, 0.0, 0, [], scene, body,
+                                 people=people, radii={"alice": 0.2})
+    assert leg["person_distance_driving_m"] == pytest.approx(0.5)
+    assert leg["body_clearance_m"] == pytest.approx(0.5 - body[0] - 0.2)  # the person, nearer than any wall
+    assert leg["world_clearance_m"] > leg["body_clearance_m"]
+    summary = nav_metrics.summarise([leg])
+    assert summary["legs_nearer_than_0_5_m_driving"] == 0
+    assert summary["verdicts"]["person_distance_driving_m"] is True
+    assert summary["verdicts"]["body_clearance_m"] is True and summary["verdicts"]["success_rate"] is True
+
+
+def test_ideal_planner_plans_round_the_table_top_in_the_true_world():
+    from florence_eval.nav_config import IdealPlanner
+
+    ideal = IdealPlanner()
+    west, east = (1.8, 3.8, 0.0), (4.5, 3.8, 0.0)  # either side of the dining table (top x 2.8..4.0)
+    xy = ideal.plan(west, east)
+    assert xy is not None
+    length = float(np.sum(np.hypot(*np.diff(xy, axis=0).T)))
+    assert length > 2.7 + 0.5  # round the top and its chairs, not under it between its legs
+    assert ideal.plan(west, (3.4, 3.8, 0.0)) is None  # under the top: no way in the true world
+    assert ideal.grid.data.shape == (220, 180)
+
+
 # --- ideal times --------------------------------------------------------------------------------------
 @pytest.mark.parametrize(("angle", "expected"), [
     (0.0, 0.0),

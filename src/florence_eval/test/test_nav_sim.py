@@ -1,5 +1,6 @@
 """move_base with the whole navigation stack in florence_sim's apartment: turtlebot_2dnav_control.launch
-sim:=true (simulator, filters, map_server, amcl, move_base) driven by an actionlib client, as a user would.
+sim:=true (simulator, filters, map_server with the map and the keep-out map, amcl, the people tracker,
+move_base) driven by an actionlib client, as a user would; no simulator map helps (sim_maps false).
 
 (Here, not in move_base's tests: florence_sim and florence_eval depend on move_base through
 turtlebot_control, so move_base cannot depend on them, even for its tests.)
@@ -102,7 +103,7 @@ def test_rejects_bad_goals_with_a_reason(nav):
     cases.append((make_goal(50.0, 50.0, 0.0), "off the global costmap"))
     cases.append((make_goal(5.0, 0.8, 0.0), "obstacle"))  # inside the living room | kitchen wall
     # under the dining table: free on the laser's map, but the robot (0.94 m) does not fit under the
-    # top; the global costmap plans on florence_sim's keep-out map
+    # top: the keep-out map (the apartment's generated one, as a user draws it) marks it
     cases.append((make_goal(3.4, 3.8, 0.0), "obstacle"))
     for goal, expected in cases:
         t0 = session.sim_now()
@@ -114,28 +115,43 @@ def test_rejects_bad_goals_with_a_reason(nav):
     assert session.collisions == 0
 
 
-def test_local_costmap_holds_the_chair_seat_the_laser_passes_under(nav, tf_buffer):
-    """The local costmap (in odom) has florence_sim's overhang map, placed through map -> odom: the
-    middle of the seat of the chair west of the dining table, 1.9 m from the start, is lethal,
-    although the Hokuyo sees only the chair's legs and the Kinect the seat's near edge."""
+def voxels_in_map(tf_buffer, timeout=30.0):
+    """The local costmap's marked voxels (x, y, z) [m], moved into the map frame."""
     import rospy
-    from nav_msgs.msg import OccupancyGrid
+    from sensor_msgs import point_cloud2
+    from sensor_msgs.msg import PointCloud2
 
     from florence_common.pose import transform_points
     from florence_common_ros.convert import to_xyyaw
 
-    _, stack = nav
-    seat = (2.45, 3.8)  # [m] in map (maps/apartment/apartment.world.yaml: chair_west)
-    msg = rospy.wait_for_message("/move_base/local_costmap/costmap", OccupancyGrid, 30)
-    map_in_costmap = to_xyyaw(tf_buffer.lookup_transform(msg.header.frame_id, "map", rospy.Time(0),
-                                                         rospy.Duration(10)))
-    x, y = transform_points(map_in_costmap, [seat])[0]
-    info = msg.info
-    col = int((x - info.origin.position.x) / info.resolution)
-    row = int((y - info.origin.position.y) / info.resolution)
-    assert 0 <= col < info.width and 0 <= row < info.height, f"the seat is outside the local window{dump(stack)}"
-    data = np.asarray(msg.data, dtype=np.int8).reshape(info.height, info.width)
-    assert data[row, col] == 100, f"the chair's seat costs {data[row, col]} in the local costmap{dump(stack)}"
+    msg = rospy.wait_for_message("/move_base/local_costmap/voxel_grid", PointCloud2, timeout)
+    pts = np.array(list(point_cloud2.read_points(msg, ("x", "y", "z"))), dtype=float).reshape(-1, 3)
+    to_map = to_xyyaw(tf_buffer.lookup_transform("map", msg.header.frame_id, rospy.Time(0), rospy.Duration(10)))
+    pts[:, :2] = transform_points(to_map, pts[:, :2])
+    return pts
+
+
+def test_table_top_stays_in_the_local_costmap_when_the_robot_is_close(nav, tf_buffer):
+    """The dining table's top (x 2.8..4.0, y 3.4..4.2, 0.69..0.71 m up): the Kinect sees it on the way,
+    and once the robot stands with its centre 0.3 m from the top's east edge, facing it, the Kinect
+    (0.09 m behind the centre, blind within 0.55 m) no longer sees the near part and the Hokuyo's beams
+    pass under it. The local costmap's voxel layer keeps the top's voxels all the same (no simulator
+    map: the check is on the voxels, which the keep-out map does not touch)."""
+    session, stack = nav
+    state, text, _, _ = session.go(4.0 + 0.3, 3.8, math.pi, sim_timeout=120.0)
+    assert state == "SUCCEEDED", f"{state}: {text}{dump(stack)}"
+    assert session.wait_still()
+    here = session.latest()
+    edge_gap = here[1] - 4.0
+    print(f"the robot's centre stands {edge_gap:.2f} m from the table top's edge, heading {here[3]:.2f} rad")
+    assert edge_gap < 0.45, f"the robot stopped {edge_gap:.2f} m from the edge"
+    t0 = session.sim_now()
+    wait_for(lambda: session.sim_now() > t0 + 2.0, 60, what="2 s of standing")  # rays of 2 s of readings
+    pts = voxels_in_map(tf_buffer)
+    near_top = pts[(pts[:, 2] > 0.6) & (pts[:, 2] < 0.75) & (pts[:, 0] > 3.75) & (pts[:, 0] < 4.0)
+                   & (np.abs(pts[:, 1] - 3.8) < 0.3)]
+    assert len(near_top) >= 5, f"the voxels of the table top's near edge are gone: {len(near_top)}{dump(stack)}"
+    assert session.collisions == 0
 
 
 @pytest.mark.slow
@@ -185,6 +201,62 @@ def test_person_stepping_into_the_corridor_is_avoided(nav):
         assert people and any(p.id == "visitor" for p in people[-1].people)
     finally:
         sub.unregister()
+        call_sim("remove_person", RemovePerson, id="visitor")
+
+
+def diagnostics_goal_states(store):
+    """A /diagnostics subscriber collecting move_base's Goal status summaries into ``store``."""
+    import rospy
+    from diagnostic_msgs.msg import DiagnosticArray
+
+    def take(msg):
+        store.extend(s.message for s in msg.status if s.name.endswith("Goal") and "move_base" in s.name)
+
+    return rospy.Subscriber("/diagnostics", DiagnosticArray, take, queue_size=10)
+
+
+def test_person_standing_in_the_corridor_makes_the_robot_wait_then_go_on(nav):
+    """Someone stands in the middle of the corridor's west part, where the robot cannot pass at a
+    polite distance and no other way leads: the robot waits (move_base WAITING; it may give way, no
+    recovery, no abort) and goes on once they step into the bedroom door."""
+    from florence_sim.srv import RemovePerson, SetPerson
+
+    session, stack = nav
+    x, y, yaw = hotspot("corridor")  # (3.0, 6.15)
+    state, text, _, _ = session.go(x, y, yaw, sim_timeout=150.0)
+    assert state == "SUCCEEDED", f"{state}: {text}{dump(stack)}"
+    session.wait_still()
+    visitor = (0.95, 6.15)  # west of the bedroom door (x 1.0..1.9): the corridor's west end lies beyond
+    assert call_sim("set_person", SetPerson, id="visitor", spec=f"{{pose: [{visitor[0]}, {visitor[1]}, 0.0]}}").success
+    summaries = []
+    diag = diagnostics_goal_states(summaries)
+    recoveries_before = stack.output(10**8).count("running recovery behaviour")
+    try:
+        t0 = session.sim_now()
+        session.send(0.4, 6.15, math.pi)
+        wait_for(lambda: any("WAITING" in m for m in summaries), 90, what="move_base WAITING for the visitor")
+        t_wait = session.sim_now()
+        wait_for(lambda: session.sim_now() > t_wait + 6.0, 60, what="6 s of waiting")
+        assert session.is_active(), f"the goal ended while the visitor stood in the way{dump(stack)}"
+        # no recovery while the visitor merely stood in the way
+        assert stack.output(10**8).count("running recovery behaviour") == recoveries_before, dump(stack)
+        # the visitor steps into the bedroom door
+        assert call_sim("set_person", SetPerson, id="visitor", spec="{pose: [1.45, 7.2, 1.57]}").success
+        t_aside = session.sim_now()
+        state, text = session.wait_result(120.0)
+        assert state == "SUCCEEDED", f"{state}: {text}{dump(stack)}"
+        track = session.track(since=t0)
+        driving = track[np.abs(track[:, 4]) >= 0.03]
+        before = driving[driving[:, 0] < t_aside]
+        gap = np.hypot(before[:, 1] - visitor[0], before[:, 2] - visitor[1]).min() if len(before) else math.inf
+        print(f"waited from {t_wait - t0:.1f} s; nearest while driving before the visitor stepped aside: "
+              f"{gap:.2f} m; took {session.sim_now() - t0:.1f} s")
+        assert gap >= 0.5, f"drove within {gap:.2f} m of the visitor's centre"
+        assert session.collisions == 0
+    finally:
+        diag.unregister()
+        if session.is_active():
+            session.client.cancel_all_goals()
         call_sim("remove_person", RemovePerson, id="visitor")
 
 
@@ -238,6 +310,8 @@ def test_cancel_mid_route_stops_the_robot(nav):
 
 @pytest.mark.slow
 def test_doorway_blocked_for_good_ends_in_recoveries_then_aborted(nav):
+    """Someone stands in the bathroom door for good: the robot waits for them (person_wait_timeout,
+    60 s), then runs its recoveries and aborts with the reason."""
     from florence_sim.srv import RemovePerson, SetPerson
 
     session, stack = nav
@@ -245,8 +319,10 @@ def test_doorway_blocked_for_good_ends_in_recoveries_then_aborted(nav):
     assert call_sim("set_person", SetPerson, id="blocker", spec="{pose: [6.6, 6.8, 0.0]}").success
     try:
         x, y, yaw = hotspot("bathroom")
-        state, text, took, _ = session.go(x, y, yaw, sim_timeout=240.0)
+        state, text, took, _ = session.go(x, y, yaw, sim_timeout=300.0)
         assert state == "ABORTED", f"{state} after {took:.0f} s: {text}{dump(stack)}"
+        assert took > 60.0, f"aborted after {took:.0f} s, before person_wait_timeout: {text}{dump(stack)}"
+        assert "people stood in the way" in text, text
         # which guard ends it depends on where the robot stops: the planner finds no way round the
         # person, the controller no trajectory, or the robot stays put past oscillation_timeout
         assert any(f"{what} even after executing recovery behaviors" in text for what in (

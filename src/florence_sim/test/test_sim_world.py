@@ -44,7 +44,9 @@ def test_shipped_map_equals_a_fresh_generation(apartment):
     """The repo ships generated files; regenerate with `rosrun florence_sim generate_map`."""
     height = mapgen.laser_height_from_description()
     assert height == pytest.approx(LASER_HEIGHT, abs=1e-3)
-    for name, data in mapgen.generate(apartment, height, "apartment").items():
+    files = mapgen.generate(apartment, height, "apartment", mapgen.robot_height_from_description())
+    assert "apartment_keepout.pgm" in files and "apartment_keepout.yaml" in files
+    for name, data in files.items():
         shipped = (MAPS / "apartment" / name).read_bytes()
         assert shipped == data, f"maps/apartment/{name} is stale: run generate_map"
 
@@ -247,6 +249,8 @@ def test_simulator_from_files_builds_the_robot_of_its_description(apartment, tmp
 def test_generate_map_command_writes_the_files_and_reports_bad_worlds(tmp_path, capsys):
     assert mapgen.main([str(APARTMENT), "--out-dir", str(tmp_path), "--laser-height", str(LASER_HEIGHT)]) == 0
     assert (tmp_path / "apartment.pgm").read_bytes() == (MAPS / "apartment" / "apartment.pgm").read_bytes()
+    assert (tmp_path / "apartment_keepout.pgm").read_bytes() == (MAPS / "apartment" /
+                                                                 "apartment_keepout.pgm").read_bytes()
     assert not list(tmp_path.glob(".tmp-*")), "temporary files left behind"
     assert mapgen.main([str(tmp_path / "missing.world.yaml")]) == 2
     assert "missing.world.yaml: file: cannot read" in capsys.readouterr().err

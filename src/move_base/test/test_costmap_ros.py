@@ -166,11 +166,10 @@ def test_costmap_ros_map_scan_and_published_grid(ros_costmap):
     with cm.lock:
         cm.layered.obstacles.grid.costs[20, 40] = 254  # an old obstacle at (2.0, 1.02) on the clear beam
     scan_pub = publisher("cmtest_scan", LaserScan)
-    buffer = cm.layered.obstacles.buffers["scan"]
 
-    def scan_arrived():
+    def scan_arrived():  # queued by the callback, converted by the next update
         scan_pub.publish(make_scan(rospy, rospy.Time.now() - rospy.Duration(0.1)))
-        return len(buffer.observations) > 0
+        return cm.queued("scan") > 0
 
     wait_for(scan_arrived, 10.0, interval=0.2, what="the costmap to take a scan")
 
@@ -245,3 +244,152 @@ def test_rolling_costmap_places_the_map_through_tf(rospy_node, publisher, tf_buf
                 return cm.costmap.cost_at(*in_odom(2.425, 1.02)) == 254
 
         wait_for(wall_moved, 10.0, interval=0.1, what="the wall to follow map -> odom")
+
+
+# --- issue 21: a Kinect cloud in voxels, the keep-out map, people; bad input --------------------------
+def make_cloud(rospy, stamp, points, frame="cmtest_laser", fields="xyz"):
+    """A PointCloud2 of ``points`` (N, 3) in ``frame`` with float32 fields named by ``fields``."""
+    from sensor_msgs import point_cloud2
+    from sensor_msgs.msg import PointField
+    from std_msgs.msg import Header
+
+    header = Header(frame_id=frame, stamp=stamp)
+    return point_cloud2.create_cloud(header, [PointField(n, 4 * i, PointField.FLOAT32, 1) for i, n in
+                                              enumerate(fields)], [tuple(p) for p in points])
+
+
+def test_voxel_costmap_takes_a_cloud_and_survives_bad_clouds(rospy_node, publisher, tf_buffer):
+    """map_type voxel with a PointCloud2 source: a point marks its column (through the upside-down
+    laser's frame: 0.1 m ahead, 0.2 m up, rolled); a cloud with NaNs marks its finite points; a cloud
+    without z, one in a frame tf does not know and one too short are skipped with a warning."""
+    from sensor_msgs.msg import PointCloud2
+
+    from florence_common.processes import wait_for
+
+    cloud = {"data_type": "PointCloud2", "topic": "cmtest_cloud", "marking": True, "clearing": True,
+             "min_obstacle_height": 0.05, "max_obstacle_height": 1.0}
+    params = dict(map_type="voxel", z_resolution=0.05, z_voxels=20, observation_sources="cloud", cloud=cloud,
+                  static_map=False, width=3.0, height=2.0, origin_x=0.0, origin_y=0.0)
+    set_params(rospy_node, **params)
+    tfp = TfPublisher(rospy_node, publisher)
+    from move_base.costmap_ros import Costmap2DROS
+
+    cm = Costmap2DROS(NAME, tf_buffer)
+    try:
+        pub = publisher("cmtest_cloud", PointCloud2)
+        cm.start()
+        wait_for(cm.get_robot_pose, 10.0, what="the robot pose")
+        # in the laser frame (rolled by pi): x ahead, y to the right, z down; 0.5 m ahead of the laser,
+        # 0.1 m below it: (1.6, 1.02, 0.1) in the map. A NaN point rides along.
+        good = [(0.5, 0.0, 0.1), (float("nan"), 0.0, 0.0)]
+
+        def marked():
+            pub.publish(make_cloud(rospy_node, rospy_node.Time.now() - rospy_node.Duration(0.05), good))
+            cm.update_now()
+            with cm.lock:
+                return cm.layered.obstacles.grid.cost_at(1.62, 1.02) == 254
+
+        wait_for(marked, 10.0, interval=0.2, what="the cloud's point in the voxel layer")
+        with cm.lock:
+            assert int(np.count_nonzero(cm.layered.obstacles.bits)) == 1
+        for bad in [make_cloud(rospy_node, rospy_node.Time.now(), [(0.4, 0.3)], fields="xy"),  # no z
+                    make_cloud(rospy_node, rospy_node.Time.now(), [(0.4, 0.3, 0.1)], frame="cmtest_nowhere")]:
+            pub.publish(bad)
+            wait_for(lambda: cm.queued("cloud") > 0, 10.0, what="the bad cloud queued")
+            assert cm.update_now()  # no exception: skipped
+        short = make_cloud(rospy_node, rospy_node.Time.now(), [(0.4, 0.3, 0.1)] * 4)
+        short.data = short.data[:-1]
+        pub.publish(short)
+        wait_for(lambda: cm.queued("cloud") > 0, 10.0, what="the short cloud queued")
+        assert cm.update_now()
+        with cm.lock:
+            assert cm.layered.obstacles.grid.cost_at(1.62, 1.02) == 254  # what was there stays
+        assert {"reading_cloud"} <= set(cm._warned)  # the warnings (throttled per kind)
+    finally:
+        cm.shutdown()
+        tfp.close()
+        rospy_node.delete_param(f"~{NAME}")
+        tf_buffer.clear()
+
+
+def test_keepout_map_of_another_size_is_placed_and_warned_about(rospy_node, publisher, tf_buffer):
+    from nav_msgs.msg import OccupancyGrid
+
+    from florence_common.processes import wait_for
+
+    keep = OccupancyGrid()
+    keep.header.frame_id = "cmtest_map"
+    keep.info.resolution, keep.info.width, keep.info.height = 0.1, 10, 10  # 1 x 1 m at 0.1 m
+    keep.info.origin.orientation.w = 1.0
+    grid = np.zeros((10, 10), dtype=np.int8)
+    grid[5, 5] = 100  # x 0.5..0.6, y 0.5..0.6
+    keep.data = grid.ravel().tolist()
+    with costmap_with_map(rospy_node, publisher, tf_buffer, keepout_map_topic="cmtest_keepout",
+                          observation_sources="") as (cm, _):
+        pub = publisher("cmtest_keepout", OccupancyGrid)
+
+        def placed():
+            pub.publish(keep)
+            return cm.layered.keepout.has_map
+
+        wait_for(placed, 10.0, interval=0.2, what="the keep-out map")
+        wait_for(cm.update_now, 10.0, what="an update")
+        with cm.lock:
+            assert cm.costmap.cost_at(0.55, 0.55) == 254
+            assert cm.costmap.cost_at(0.7, 0.55) < 254
+        assert "keepout_geometry" in cm._warned  # another size and resolution than the map: said so
+        bad = OccupancyGrid()
+        bad.info.width, bad.info.height, bad.info.resolution = 4, 4, float("nan")
+        bad.data = [0] * 16
+        pub.publish(bad)
+        wait_for(lambda: "keepout" in cm._warned, 10.0, what="the bad keep-out map's warning")
+        with cm.lock:
+            assert cm.layered.keepout.grid.size_x == 10  # the good one stays
+
+
+def test_people_costs_lapse_when_the_track_is_gone(rospy_node, publisher, tf_buffer):
+    """A proxemic layer on a TrackedUsers topic: a person 0.8 m ahead of the robot raises the costs
+    round them; a person at a NaN position is left out with a warning; once the tracker's messages
+    no longer hold the person, their cost lapses keep_time after they were last seen."""
+    from geometry_msgs.msg import Point, Vector3
+
+    from florence_common.processes import wait_for
+    from user_tracker_ni.msg import TrackedUsers
+
+    def users(xy, seen):
+        msg = TrackedUsers()
+        msg.stamp = rospy_node.Time.now()
+        msg.frame_id = "cmtest_map"
+        for i, (x, y) in enumerate(xy):
+            msg.user_ids.append(i + 1)
+            msg.user_ids_ni.append(i + 1)
+            msg.positions.append(Point(x, y, 0.85))
+            msg.velocities.append(Vector3(0.0, 0.0, 0.0))
+            msg.last_seen.append(seen)
+        msg.num_users_tracked = len(xy)
+        return msg
+
+    with costmap_with_map(rospy_node, publisher, tf_buffer, people_topic="cmtest_people",
+                          proxemic={"keep_time": 1.0, "lethal_radius": 0.2}, observation_sources="") as (cm, _):
+        pub = publisher("cmtest_people", TrackedUsers)
+
+        def person_in_costmap():
+            pub.publish(users([(1.8, 1.02), (float("nan"), 1.0)], rospy_node.Time.now()))
+            cm.update_now()
+            with cm.lock:
+                return cm.costmap.cost_at(1.82, 1.02) == 254 and 0 < cm.costmap.cost_at(1.82, 1.62) < 253
+
+        wait_for(person_in_costmap, 10.0, interval=0.2, what="the person's costs")
+        assert "people_nan" in cm._warned
+        seen = rospy_node.Time.now()
+
+        def lapsed():
+            pub.publish(users([], seen))  # the tracker lost them
+            cm.update_now()
+            with cm.lock:
+                return cm.costmap.cost_at(1.82, 1.62) == 0 and cm.costmap.cost_at(1.82, 1.02) < 253
+
+        with cm.lock:
+            assert cm.costmap.cost_at(1.82, 1.62) > 0  # still there right after the track went
+        wait_for(lapsed, 10.0, interval=0.2, what="the person's costs to lapse")
+        assert (rospy_node.Time.now() - seen).to_sec() >= 0.9

@@ -284,3 +284,172 @@ def test_max_recovery_restarts_ends_a_robot_shuffling_on_the_spot():
                              [FakeRecovery("a"), FakeRecovery("b")])
     unlimited.set_goal((5.0, 0.0, 0.0), 0.0, POSE)
     assert run(unlimited, pose=shuffle, n=5000)[0] is None  # ROS: on and on
+
+
+# --- Florence: waiting for people ------------------------------------------------------------------
+class FakePeople:
+    """People in the way while ``blocked(now)``; give way to ``aside`` (or nowhere)."""
+
+    def __init__(self, blocked, aside=None):
+        self.blocked = blocked
+        self.aside = aside
+        self.now = 0.0
+        self.give_way_asked = 0
+
+    def blocking(self, pose, goal, reason):
+        return "a person at (1.00, 0.00), 1.00 m away stands in the way" if self.blocked(self.now) else ""
+
+    def give_way(self, pose):
+        self.give_way_asked += 1
+        return self.aside
+
+    def clear(self, pose, poses):
+        return not self.blocked(self.now)
+
+    def plan_to(self, start, pose):
+        return GOOD
+
+
+class WaitingPlanner:
+    """No plan while the people block; then the way."""
+
+    def __init__(self, people):
+        self.people = people
+        self.calls = 0
+
+    def __call__(self, start, goal):
+        self.calls += 1
+        return Plan(False, reason="no path") if self.people.blocked(self.people.now) else GOOD
+
+
+class GivingWayController(FakeController):
+    """Refuses to drive into the people while they block (as the local planner's
+    min_person_distance), except on a plan that gives way."""
+
+    def __init__(self, people, **kw):
+        super().__init__(**kw)
+        self.people = people
+        self.giving_way = []
+
+    def set_plan(self, poses, giving_way=False):
+        self.plans.append(poses)
+        self.giving_way.append(giving_way)
+        self.calls_on_plan = 0
+
+    def is_goal_reached(self):
+        if self.giving_way and self.giving_way[-1]:
+            return self.calls_on_plan >= 5  # out of the way after 5 cycles
+        return super().is_goal_reached()
+
+    def compute_velocity(self, pose):
+        self.calls_on_plan = getattr(self, "calls_on_plan", 0) + 1
+        if self.people.blocked(self.people.now) and not self.giving_way[-1]:
+            self.calls += 1
+            return False, (0.0, 0.0, 0.0), "no valid trajectory: the others would come nearer than ..."
+        return super().compute_velocity(pose)
+
+
+def run_people(core, people, n=400, dt=0.2, pose=POSE):
+    results = []
+    for i in range(n):
+        now = i * dt
+        people.now = now
+        r = core.cycle(now, pose)
+        results.append((now, core.state, r))
+        if r.outcome:
+            return r.outcome, r.text, now, results
+    return None, "", n * dt, results
+
+
+def test_a_person_in_the_way_makes_the_robot_wait_then_go_on():
+    people = FakePeople(lambda now: 1.0 <= now < 21.0)
+    ctrl = GivingWayController(people, reached_after=40)
+    recs = [FakeRecovery("conservative_reset")]
+    core = MoveBaseCore(core_params(planner_patience=1.0, person_wait_timeout=60.0), WaitingPlanner(people), ctrl,
+                        recs, people=people)
+    core.set_goal((5.0, 0.0, 0.0), 0.0, POSE)
+    outcome, text, _, results = run_people(core, people)
+    assert outcome == "succeeded", text
+    assert recs[0].started == 0  # no recovery while a person was merely in the way
+    waiting = [now for now, state, _ in results if state == "WAITING"]
+    assert waiting and min(waiting) < 2.0 and 20.0 <= max(waiting) < 21.5
+    assert all(r.cmd == (0.0, 0.0, 0.0) for now, state, r in results if state == "WAITING")
+
+
+def test_without_person_wait_timeout_ros_runs_its_recoveries():
+    people = FakePeople(lambda now: 1.0 <= now < 21.0)
+    recs = [FakeRecovery("conservative_reset")]
+    core = MoveBaseCore(core_params(planner_patience=1.0, controller_patience=2.0), WaitingPlanner(people),
+                        GivingWayController(people, reached_after=40), recs, people=people)
+    core.set_goal((5.0, 0.0, 0.0), 0.0, POSE)
+    outcome, _, _, _ = run_people(core, people)
+    assert outcome == "aborted" and recs[0].started == 1
+
+
+def test_waiting_ends_in_the_recoveries_after_person_wait_timeout():
+    people = FakePeople(lambda now: now >= 1.0)  # for good
+    recs = [FakeRecovery("conservative_reset"), FakeRecovery("rotate_recovery")]
+    core = MoveBaseCore(core_params(planner_patience=1.0, person_wait_timeout=10.0), WaitingPlanner(people),
+                        GivingWayController(people), recs, people=people)
+    core.set_goal((5.0, 0.0, 0.0), 0.0, POSE)
+    outcome, text, t_end, results = run_people(core, people)
+    assert outcome == "aborted"
+    assert text.startswith("Failed to find a valid plan even after executing recovery behaviors: no path")
+    assert "people stood in the way for 10 s (person_wait_timeout 10 s): a person at (1.00, 0.00)" in text
+    assert [r.started for r in recs] == [1, 1]
+    first_recovery = min(now for now, _, r in results if r.started_recovery)
+    assert 11.0 <= first_recovery <= 12.0  # waited, then ROS's way (not waited for again)
+    assert t_end < 20.0
+
+
+def test_giving_way_after_give_way_after():
+    people = FakePeople(lambda now: 1.0 <= now < 15.0, aside=(-1.0, 1.0, 2.0))
+    ctrl = GivingWayController(people, reached_after=None)
+    core = MoveBaseCore(core_params(planner_patience=1.0, person_wait_timeout=60.0, give_way_after=3.0),
+                        WaitingPlanner(people), ctrl, [], people=people)
+    core.set_goal((5.0, 0.0, 0.0), 0.0, POSE)
+    results = run_people(core, people, n=90)[3]
+    assert people.give_way_asked >= 1
+    assert True in ctrl.giving_way  # the controller got the plan out of the way as such
+    giving = [r for now, state, r in results if r.text == "giving way to people"]
+    assert any(r.cmd != (0.0, 0.0, 0.0) for r in giving)  # it drove there
+    first_ask = min(now for now, state, r in results if r.text == "giving way to people")
+    assert 4.0 <= first_ask <= 4.5  # waited from 1.0 s, gave way 3 s later
+    # the way free again: back to the goal's plan, not giving way
+    assert ctrl.giving_way[-1] is False and results[-1][1] == CONTROLLING
+
+
+def test_waiting_goes_on_only_with_nobody_close_in_front():
+    """The way round the person exists (the plan and the controller agree), but the person stands
+    close in front: the robot keeps waiting rather than creep past them."""
+    people = FakePeople(lambda now: 1.0 <= now < 9.0)
+    people.clear = lambda pose, poses: people.now >= 15.0
+    people.blocking = lambda pose, goal, reason: "" if people.now >= 15.0 else "a person at (1.00, 0.00) ..."
+    ctrl = GivingWayController(people, reached_after=None)
+    core = MoveBaseCore(core_params(person_wait_timeout=60.0), WaitingPlanner(people), ctrl, [], people=people)
+    core.set_goal((5.0, 0.0, 0.0), 0.0, POSE)
+    results = run_people(core, people, n=100)[3]
+    waiting = [now for now, state, _ in results if state == "WAITING"]
+    assert min(waiting) < 1.5 and 14.5 < max(waiting) < 15.5
+    assert results[-1][1] == CONTROLLING
+
+
+def test_no_give_way_when_there_is_nowhere_to_go():
+    people = FakePeople(lambda now: now >= 1.0, aside=None)
+    core = MoveBaseCore(core_params(person_wait_timeout=10.0, give_way_after=3.0), WaitingPlanner(people),
+                        GivingWayController(people), [], people=people)
+    core.set_goal((5.0, 0.0, 0.0), 0.0, POSE)
+    outcome, _, _, results = run_people(core, people)
+    assert outcome == "aborted" and people.give_way_asked == 3  # at 3, 6 and 9 s of waiting
+    assert all(r.cmd == (0.0, 0.0, 0.0) for now, state, r in results if state == "WAITING")
+
+
+def test_while_waiting_a_turn_toward_the_people_is_not_going_on():
+    from move_base.move_base_core import _goes_on
+
+    plan_ahead = np.array([[0.0, 0.0, 0.0], [0.5, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    plan_behind = np.array([[0.0, 0.0, math.pi], [-0.5, 0.0, math.pi], [-1.0, 0.0, math.pi]])
+    assert _goes_on((0.2, 0.0, 0.0), (0.0, 0.0, 0.0), plan_ahead)
+    assert not _goes_on((0.0, 0.0, 0.8), (0.0, 0.0, 0.0), plan_ahead)
+    assert _goes_on((0.0, 0.0, 0.8), (0.0, 0.0, 0.0), plan_behind)  # it must turn first
+    assert _goes_on((0.0, 0.0, 0.8), (0.0, 0.0, 0.0), plan_ahead[:1])  # at the goal: its yaw

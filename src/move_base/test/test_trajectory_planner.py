@@ -312,6 +312,18 @@ def test_escape_when_boxed_in_then_leaves_escape_mode():
     assert not tp.escaping
 
 
+def test_no_escape_into_what_is_behind_the_robot():
+    """Florence: boxed in as above, with a table's corner 0.1 m behind the robot's tail: backing up
+    would end on it, so the planner gives no command (ROS backed into it)."""
+    cm = Costmap2D(100, 100, 0.1)
+    cm.costs[45:56, 53] = LETHAL_OBSTACLE
+    cm.costs[45:56, 52] = LETHAL_OBSTACLE
+    cm.costs[48:52, 47] = LETHAL_OBSTACLE  # x 4.7 .. 4.8: behind the tail (x 4.83)
+    tp = TrajectoryPlanner(seed_params(), FOOTPRINT)
+    cmd, cost, _ = tp.find_best_command(cm, 5.0, 5.0, 0.0, 0.0, 0.0, 0.0, straight_plan(5.0, 8.0, 5.0))
+    assert cost < 0 and cmd == (0.0, 0.0, 0.0)
+
+
 def test_no_route_to_the_goal_gives_a_negative_cost_and_zero_command():
     cm = Costmap2D(60, 60, 0.1)
     cm.costs[:, 35] = LETHAL_OBSTACLE  # a wall between the robot and the plan's end (the local goal)

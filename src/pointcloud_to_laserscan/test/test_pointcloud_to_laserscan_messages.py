@@ -1,13 +1,10 @@
 """Message decoding of the node: depth images through florence_common_ros.convert (cv_bridge;
-both encodings, row padding, endianness) and point clouds (point_step padding), and the clear
-errors on malformed input."""
+both encodings, row padding, endianness) and the clear errors on malformed input (point clouds:
+florence_common_ros.convert.cloud_to_points, tested there)."""
 
 import numpy as np
 import pytest
-from pointcloud_to_laserscan.node import cloud_to_points
-from sensor_msgs import point_cloud2
-from sensor_msgs.msg import Image, PointField
-from std_msgs.msg import Header
+from sensor_msgs.msg import Image
 
 from florence_common_ros.convert import depth_image_metres
 
@@ -43,22 +40,3 @@ def test_image_decoding(encoding, dtype, pad, bigendian):
 def test_bad_images_are_clear_errors(msg, message):
     with pytest.raises(ValueError, match=message):
         depth_image_metres(msg)
-
-
-def test_cloud_decoding_with_extra_fields():
-    fields = [PointField("x", 0, PointField.FLOAT32, 1), PointField("y", 4, PointField.FLOAT32, 1),
-              PointField("z", 8, PointField.FLOAT32, 1), PointField("rgb", 16, PointField.FLOAT32, 1)]
-    pts = [(1.0, 2.0, 3.0, 0.0), (4.0, 5.0, 6.0, 0.0)]
-    msg = point_cloud2.create_cloud(Header(frame_id="f"), fields, pts)
-    assert msg.point_step == 20
-    assert cloud_to_points(msg) == pytest.approx(np.array([[1, 2, 3], [4, 5, 6]], np.float32))
-
-
-def test_bad_clouds_are_clear_errors():
-    msg = point_cloud2.create_cloud_xyz32(Header(frame_id="f"), [(1.0, 2.0, 3.0)] * 4)
-    msg.data = msg.data[:-1]
-    with pytest.raises(ValueError, match="too short"):
-        cloud_to_points(msg)
-    msg = point_cloud2.create_cloud(Header(frame_id="f"), [PointField("x", 0, PointField.FLOAT32, 1)], [(1.0,)])
-    with pytest.raises(ValueError, match="'y'"):
-        cloud_to_points(msg)

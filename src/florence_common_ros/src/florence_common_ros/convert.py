@@ -145,3 +145,28 @@ def array_to_image(array, encoding, header=None):
     if header is not None:
         msg.header = header
     return msg
+
+
+# --- point clouds -------------------------------------------------------------------------------
+_FLOAT32 = 7  # sensor_msgs/PointField.FLOAT32
+
+
+def cloud_to_points(msg):
+    """(N, 3) float32 x y z of a sensor_msgs/PointCloud2 (any point_step/row_step, either endianness;
+    NaN points kept); ValueError naming the problem for a cloud without float32 x, y, z or with
+    too little data."""
+    fields = {f.name: f for f in msg.fields}
+    for name in "xyz":
+        f = fields.get(name)
+        if f is None or f.datatype != _FLOAT32:
+            raise ValueError(f"cloud field {name!r} missing or not FLOAT32")
+    order = ">" if msg.is_bigendian else "<"
+    dtype = np.dtype({"names": list("xyz"), "formats": [order + "f4"] * 3,
+                      "offsets": [fields[n].offset for n in "xyz"], "itemsize": msg.point_step})
+    if msg.point_step < 12 or msg.row_step < msg.width * msg.point_step or \
+            len(msg.data) < msg.row_step * msg.height:
+        raise ValueError(f"cloud data too short or steps inconsistent ({len(msg.data)} bytes, "
+                         f"{msg.height}x{msg.width}, point_step {msg.point_step}, row_step {msg.row_step})")
+    rows = np.frombuffer(msg.data, dtype=np.uint8, count=msg.row_step * msg.height).reshape(msg.height, msg.row_step)
+    pts = rows[:, :msg.width * msg.point_step].copy().view(dtype).reshape(-1)
+    return np.stack([pts["x"], pts["y"], pts["z"]], axis=1).astype(np.float32)

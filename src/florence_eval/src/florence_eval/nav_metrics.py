@@ -26,7 +26,13 @@ MAX_VEL_TH = 1.5  # [rad/s] the seed's max_rotational_vel
 ACC_TH = 1.0  # [rad/s^2] velocity_filter's max_angular_acc, the base's real limit
 XY_GOAL_TOLERANCE = 0.25  # [m] the seed's TrajectoryPlannerROS xy_goal_tolerance
 YAW_GOAL_TOLERANCE = 0.3  # [rad] the seed's yaw_goal_tolerance
-TARGETS = {"success_rate": 0.98, "collisions": 0, "time_ratio_median": 1.3}  # issue 6
+DRIVING_SPEED = 0.03  # [m/s] ground-truth speed from which the robot counts as driving (time_breakdown too)
+PERSON_RADIUS = 0.20  # [m] a person's footprint when the people file does not say (florence_sim's RADIUS)
+# issue 21: with the walking residents and without them (then the time ratio's target is 1.25)
+TARGETS = {"success_rate": 0.99, "collisions": 0, "person_distance_driving_m": 0.5, "body_clearance_m": 0.05,
+           "time_ratio_median": 1.35}
+TARGETS_NOBODY = {**TARGETS, "time_ratio_median": 1.25}
+TARGETS_BUSY = {"success_rate": 0.95, "collisions": 0}  # one core kept busy by another process
 
 
 # --- goals and ideal times ---------------------------------------------------------------------------
@@ -147,19 +153,77 @@ def body_clearance(scene, track, radius, height):
     return float(dist.min() - radius)
 
 
+def people_radii(people_file):
+    """{person id: footprint radius [m]} of a florence_sim people file (None: nobody), the radius a
+    person keeps clear of the robot with (florence_sim.people.Person.radius)."""
+    if not people_file:
+        return {}
+    from florence_sim.people import load_people
+
+    return {p.id: p.radius for p in load_people(str(people_file), load_scene())}
+
+
+def people_near(track, people, robot_radius, radii=None, driving_speed=DRIVING_SPEED):
+    """How near the robot came to people along a track (ground truth).
+
+    ``people``: {person id: (M, 3) rows (t [s], x [m], y [m])} (NavSession.people_track), each
+    person's position interpolated at the track's stamps (not extrapolated: a row outside a
+    person's records does not count for them); ``radii``: {person id: radius [m]} (default
+    :data:`PERSON_RADIUS`). Returns a dict of the least centre distance [m] while the robot
+    drives (ground-truth speed >= ``driving_speed`` [m/s]) with where it was ([robot x, y, person
+    x, y, person id]), the least at any time, and the least gap between the robot's body (a disc
+    of ``robot_radius``) and a person's footprint; each None
+    when no person was recorded over the track (or, for the first, the robot never drove)."""
+    track = np.asarray(track, dtype=float).reshape(-1, 6)
+    radii = radii or {}
+    out = {"person_distance_driving_m": None, "person_distance_m": None, "person_clearance_m": None,
+           "person_nearest_driving_at": None}
+    if len(track) == 0:
+        return out
+    t, driving = track[:, 0], np.abs(track[:, 4]) >= driving_speed
+    near_all, near_driving, gap = [], [], []
+    for pid, person in people.items():
+        rows = np.asarray(person, dtype=float).reshape(-1, 3)
+        if len(rows) == 0:
+            continue
+        seen = (t >= rows[0, 0]) & (t <= rows[-1, 0])
+        if not seen.any():
+            continue
+        px = np.interp(t[seen], rows[:, 0], rows[:, 1])
+        py = np.interp(t[seen], rows[:, 0], rows[:, 2])
+        d = np.hypot(track[seen, 1] - px, track[seen, 2] - py)
+        near_all.append(d.min())
+        gap.append(d.min() - robot_radius - radii.get(pid, PERSON_RADIUS))
+        if driving[seen].any():
+            i = int(np.argmin(np.where(driving[seen], d, np.inf)))
+            near_driving.append((d[i], [round(float(track[seen][i, 1]), 3), round(float(track[seen][i, 2]), 3),
+                                        round(float(px[i]), 3), round(float(py[i]), 3), pid]))
+    if near_all:
+        out["person_distance_m"], out["person_clearance_m"] = float(min(near_all)), float(min(gap))
+    if near_driving:
+        d, where = min(near_driving, key=lambda item: item[0])
+        out["person_distance_driving_m"], out["person_nearest_driving_at"] = float(d), where
+    return out
+
+
 def leg_record(goal, state, text, took, driven, plan_m, turns_s, track, t0, collisions, collision_poses, scene,
-               body, max_vel_x=MAX_VEL_X):
+               body, max_vel_x=MAX_VEL_X, people=None, radii=None):
     """Everything bench/nav.py reports of one leg, as a JSON-ready dict.
 
     ``goal`` (x, y, yaw); ``state``/``text`` the action's result; ``took`` [s] simulated time to
     the result and ``driven`` [m] from NavSession.go; ``plan_m``/``turns_s`` from
     :func:`plan_length_and_turns`; ``track`` the ground truth since ``t0`` [s], up to the base at
     rest after the result; ``collisions``/``collision_poses`` the bumper hits of the leg; ``scene``
-    and ``body`` (radius, height) for :func:`body_clearance`."""
+    and ``body`` (radius, height) for :func:`body_clearance`; ``people`` and ``radii`` for
+    :func:`people_near`. ``body_clearance_m`` is the least gap to anything, walls, furniture or
+    people (``world_clearance_m`` and ``person_clearance_m`` apart)."""
     track = np.asarray(track).reshape(-1, 6)
     rest = time_to_rest(track, t0)
     rest_error = goal_error(track, goal)[0]
-    clearance = body_clearance(scene, track, *body)  # until rest
+    world = body_clearance(scene, track, *body)  # until rest
+    near = people_near(track, people or {}, body[0], radii)
+    gaps = [g for g in (world, near["person_clearance_m"]) if g is not None]
+    clearance = min(gaps) if gaps else None
     track = track[track[:, 0] <= t0 + took]
     end_error, end_yaw_error = goal_error(track, goal)
     ideal = plan_m / max_vel_x
@@ -172,7 +236,7 @@ def leg_record(goal, state, text, took, driven, plan_m, turns_s, track, t0, coll
         **time_breakdown(track), **leg_phases(track, goal),
         "collisions": collisions,
         "collision_poses": [list(p) for p in collision_poses],
-        "body_clearance_m": clearance,
+        "body_clearance_m": clearance, "world_clearance_m": world, **near,
         "track": track[::5].round(3).tolist(),
     }
 
@@ -195,20 +259,31 @@ def clearance_spread(values):
     return {"min": float(v.min()), "p5": float(np.percentile(v, 5)), "median": float(np.median(v))}
 
 
-def summarise(legs):
-    """The run's figures over its legs (:func:`leg_record`): success, collisions, body clearance, time
-    ratios (the medians over the goals reached), phases, goal errors and where the time went."""
+def summarise(legs, targets=None):
+    """The run's figures over its legs (:func:`leg_record`): success, collisions, body clearance,
+    distance to people, time ratios (the medians over the goals reached), phases, goal errors and
+    where the time went; ``targets`` (default :data:`TARGETS`) judged in ``verdicts``."""
     ok = [leg for leg in legs if leg["state"] == "SUCCEEDED"]
 
     def median(key):  # over the goals reached
         return float(np.median([leg[key] for leg in ok])) if ok else None
 
     ratios = np.array([leg["ratio"] for leg in ok])
-    return {
+    out = {
         "pairs": len(legs), "succeeded": len(ok), "success_rate": len(ok) / max(1, len(legs)),
         "collisions": int(sum(leg["collisions"] for leg in legs)),
-        # each leg's least ground-truth gap between the robot's body and the world, every pose
+        # each leg's least ground-truth gap between the robot's body and anything (walls, furniture,
+        # people), every pose; and to the world and to people apart
         "body_clearance_m": clearance_spread([leg["body_clearance_m"] for leg in legs]),
+        "world_clearance_m": clearance_spread([leg.get("world_clearance_m") for leg in legs]),
+        "person_clearance_m": clearance_spread([leg.get("person_clearance_m") for leg in legs]),
+        # each leg's least distance between the robot's centre and a person's: while the robot drove,
+        # and at any time (a person may walk up to a robot that stands)
+        "person_distance_driving_m": clearance_spread([leg.get("person_distance_driving_m") for leg in legs]),
+        "person_distance_m": clearance_spread([leg.get("person_distance_m") for leg in legs]),
+        "legs_nearer_than_0_5_m_driving": sum(
+            1 for leg in legs if leg.get("person_distance_driving_m") is not None
+            and leg["person_distance_driving_m"] < 0.5),
         "time_ratio_median": float(np.median(ratios)) if len(ratios) else None,
         "time_ratio_p90": float(np.percentile(ratios, 90)) if len(ratios) else None,
         "time_ratio_max": float(ratios.max()) if len(ratios) else None,
@@ -230,8 +305,29 @@ def summarise(legs):
         "time_share": {k: float(sum(leg[k] for leg in ok) / max(1e-9, sum(leg["time_s"] for leg in ok)))
                        for k in ("driving_s", "turning_in_place_s", "standing_s")},
         "failures": [{k: leg[k] for k in ("goal", "state", "text")} for leg in legs if leg["state"] != "SUCCEEDED"],
-        "targets": TARGETS,
     }
+    targets = TARGETS if targets is None else targets
+    out["targets"] = targets
+    out["verdicts"] = verdicts(out, targets)
+    return out
+
+
+def verdicts(summary, targets):
+    """{target name: True (met) / False (missed) / None (no figure)} of a run's summary."""
+    def figure(name):
+        value = summary.get(name)
+        return value["min"] if isinstance(value, dict) else value
+
+    out = {}
+    for name, target in targets.items():
+        value = figure(name)
+        if value is None:
+            out[name] = None
+        elif name in ("collisions", "time_ratio_median"):
+            out[name] = bool(value <= target)
+        else:
+            out[name] = bool(value >= target)
+    return out
 
 
 def clearance_of(path, scene=None, body=None):
@@ -248,7 +344,8 @@ def clearance_of(path, scene=None, body=None):
 
 
 def plot_legs(path, grid, legs, title):
-    """Every leg's track over the map (blue reached, red not; goals as crosses), written to ``path``."""
+    """Every leg's track over the map (blue reached, red not; goals as crosses; a magenta line from
+    the robot to a person it drove nearer than 0.5 m to), written to ``path``."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -262,6 +359,10 @@ def plot_legs(path, grid, legs, title):
             color = "tab:blue" if leg["state"] == "SUCCEEDED" else "tab:red"
             ax.plot(track[:, 1], track[:, 2], "-", color=color, lw=0.8, alpha=0.6)
         ax.plot(leg["goal"][0], leg["goal"][1], "x", color="tab:orange", ms=4)
+        near, where = leg.get("person_distance_driving_m"), leg.get("person_nearest_driving_at")
+        if near is not None and near < 0.5 and where:  # the robot drove nearer than 0.5 m to a person
+            ax.plot([where[0], where[2]], [where[1], where[3]], "-", color="magenta", lw=1.5)
+            ax.plot(where[2], where[3], "o", color="magenta", ms=4)
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_title(title, fontsize=9)

@@ -30,23 +30,34 @@ def make_goal(x, y, yaw, frame="map"):
 
 
 class TruthRecorder:
-    """A recorder of florence_sim's ground truth (the robot's pose and speeds) and collisions."""
+    """A recorder of florence_sim's ground truth (the robot's pose and speeds, and with
+    ``record_people`` the people's positions) and collisions."""
 
-    def __init__(self):
+    def __init__(self, record_people=False):
         self.lock = threading.Lock()
         self.truth = []  # (t [s], x [m], y [m], yaw [rad], v [m/s], w [rad/s])
         self.collisions = 0
         self.collision_poses = []  # ground truth (t, x, y, yaw, v, w) when the bumper count went up
+        self.people = []  # (t [s], {person id: (x [m], y [m])}) from people_ground_truth
         self.subs = [
             rospy.Subscriber("base_pose_ground_truth", Odometry, self._on_truth, queue_size=100),
             rospy.Subscriber("collisions", UInt32, self._on_collisions, queue_size=10),
         ]
+        if record_people:
+            from florence_sim.msg import People
+
+            self.subs.append(rospy.Subscriber("people_ground_truth", People, self._on_people, queue_size=20))
 
     def _on_truth(self, msg):
         p, t = msg.pose.pose, msg.twist.twist
         with self.lock:
             self.truth.append((msg.header.stamp.to_sec(), p.position.x, p.position.y, convert.yaw_of(p.orientation),
                                math.hypot(t.linear.x, t.linear.y), t.angular.z))
+
+    def _on_people(self, msg):
+        where = {p.id: (p.pose.position.x, p.pose.position.y) for p in msg.people}
+        with self.lock:
+            self.people.append((msg.header.stamp.to_sec(), where))
 
     def _on_collisions(self, msg):
         with self.lock:
@@ -74,12 +85,25 @@ class TruthRecorder:
             first = bisect.bisect_left(self.truth, since, key=lambda row: row[0])
             return np.array(self.truth[first:]).reshape(-1, 6)
 
+    def people_track(self, since=0.0):
+        """Every person's ground truth stamped at or after ``since`` [s] (one second earlier too, so
+        that the first rows of a leg can be interpolated): {person id: (N, 3) array of (t [s], x [m],
+        y [m])}."""
+        with self.lock:
+            first = bisect.bisect_left(self.people, since - 1.0, key=lambda row: row[0])
+            rows = self.people[first:]
+        out = {}
+        for t, where in rows:
+            for pid, (x, y) in where.items():
+                out.setdefault(pid, []).append((t, x, y))
+        return {pid: np.array(v) for pid, v in out.items()}
+
 
 class NavSession(TruthRecorder):
-    """An actionlib client of move_base plus a recorder of ground truth and collisions."""
+    """An actionlib client of move_base plus a recorder of ground truth (the people's too) and collisions."""
 
-    def __init__(self, action="move_base"):
-        super().__init__()
+    def __init__(self, action="move_base", record_people=True):
+        super().__init__(record_people)
         self.client = actionlib.SimpleActionClient(action, MoveBaseAction)
         self._make_plan = None  # ~make_plan's proxy, made on first use
 

@@ -1,15 +1,22 @@
-"""Generate the ground-truth map (map_server PGM + YAML) and rooms.yaml from a world.
+"""Generate the ground-truth map (map_server PGM + YAML), the keep-out map and rooms.yaml from a
+world.
 
 The map shows what the robot's 2D laser sees at its mounting height: table legs,
 not table tops. Cells inside a room polygon are free (254), cells touched by an
 obstacle at laser height occupied (0), everything else unknown (205).
 
+The keep-out map (``<name>_keepout.pgm`` + YAML, the map's size, resolution and origin) is
+what a user draws for the robot on a copy of its map (turtlebot_control/README.md): the places
+the robot runs into that the laser passes under (table tops, chair seats) occupied, every
+other cell of the rooms free. turtlebot_2dnav_control.launch sim:=true serves it as the
+robot's keep-out map.
+
 Command line (also ``rosrun florence_sim generate_map``)::
 
-    generate_map WORLD.world.yaml [--out-dir DIR] [--name apartment] [--laser-height H]
+    generate_map WORLD.world.yaml [--out-dir DIR] [--name apartment] [--laser-height H] [--robot-height H]
 
-Without ``--laser-height`` the height of ``base_laser_link`` is read from the robot
-description (turtlebot_control's xacro).
+Without ``--laser-height`` the height of ``base_laser_link``, without ``--robot-height`` the
+robot's top are read from the robot description (turtlebot_control's xacro).
 """
 
 import argparse
@@ -102,14 +109,23 @@ def rooms_yaml_text(world):
     return header + yaml.safe_dump({"frame_id": "map", "rooms": rooms}, sort_keys=True, default_flow_style=None)
 
 
-def generate(world, laser_height, name):
-    """``{file name: bytes}`` of the map image, its YAML and rooms.yaml."""
+def generate(world, laser_height, name, robot_height=None):
+    """``{file name: bytes}`` of the map image, its YAML and rooms.yaml, and with
+    ``robot_height`` [m] the keep-out map's image and YAML (:func:`overhang` of the laser's map
+    and the map of everything below the robot's top)."""
     image = rasterize(world, laser_height)
-    return {
+    files = {
         f"{name}.pgm": pgm_bytes(image),
         f"{name}.yaml": map_yaml_text(world, f"{name}.pgm").encode(),
         "rooms.yaml": rooms_yaml_text(world).encode(),
     }
+    if robot_height is not None:
+        keepout = overhang(image, rasterize(world, laser_height, top=robot_height))
+        files[f"{name}_keepout.pgm"] = pgm_bytes(keepout)
+        files[f"{name}_keepout.yaml"] = map_yaml_text(world, f"{name}_keepout.pgm").replace(
+            "; do not edit.\n", "; do not edit.\n# The keep-out map: where the robot must not go although the "
+            "laser sees nothing there.\n", 1).encode()
+    return files
 
 
 def laser_height_from_description():
@@ -119,12 +135,21 @@ def laser_height_from_description():
     return float(RobotModel.from_xacro().pose("base_laser_link")[2, 3])
 
 
+def robot_height_from_description():
+    """Height [m] of the robot's top above the floor, from the robot description."""
+    from florence_sim.robot_model import RobotModel
+
+    return float(RobotModel.from_xacro().height())
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description="Generate map_server PGM/YAML and rooms.yaml from a world file")
     parser.add_argument("world", help="world file (.world.yaml)")
     parser.add_argument("--out-dir", help="output directory (default: the world file's directory)")
     parser.add_argument("--name", help="map base name (default: the world's name)")
     parser.add_argument("--laser-height", type=float, help="[m] slice height (default: from the robot description)")
+    parser.add_argument("--robot-height", type=float,
+                        help="[m] the robot's top, for the keep-out map (default: from the robot description)")
     args = parser.parse_args(argv)
     try:
         world = load_world(args.world)
@@ -134,8 +159,11 @@ def main(argv=None):
     height = args.laser_height if args.laser_height is not None else laser_height_from_description()
     if not math.isfinite(height) or height <= 0:
         parser.error(f"laser height must be > 0, got {height}")
+    top = args.robot_height if args.robot_height is not None else robot_height_from_description()
+    if not math.isfinite(top) or top <= height:
+        parser.error(f"robot height must be above the laser ({height} m), got {top}")
     out_dir = args.out_dir or os.path.dirname(world.path)
-    for fname, data in generate(world, height, args.name or world.name).items():
+    for fname, data in generate(world, height, args.name or world.name, top).items():
         atomic_write(os.path.join(out_dir, fname), data)
         print(f"wrote {os.path.join(out_dir, fname)}")
     return 0

@@ -16,8 +16,11 @@ import numpy as np
 from florence_common.params import FRAME, Param, ParamError, Params, ParamTable
 from move_base.footprint import footprint_value, pad_footprint, parse_footprint
 from move_base.layers import LayeredCostmap, ObservationSource
+from move_base.people_layer import PROXEMIC_PARAMS
+from move_base.voxel_layer import MAX_Z_VOXELS
 
 DATA_TYPES = ("LaserScan", "PointCloud", "PointCloud2")
+MAP_TYPES = ("costmap", "voxel")
 
 
 def _named(frame):
@@ -63,6 +66,18 @@ PARAMS = ParamTable(
     Param("cost_scaling_factor", float, 10.0, "decay of the inflated cost with distance", unit="1/m", ge=0.0),
     Param("observation_sources", str, "", "space-separated names of the sensor sources, each a dictionary of "
           "SOURCE_PARAMS in the costmap's namespace"),
+    Param("map_type", str, "costmap", "the obstacle layer: 'costmap' (2-D) or 'voxel' (3-D columns: what one "
+          "sensor sees at one height is not cleared by another's ray at another)", choices=MAP_TYPES),
+    Param("origin_z", float, 0.0, "voxel: bottom of the columns", unit="m"),
+    Param("z_resolution", float, 0.2, "voxel: height of a voxel", unit="m", gt=0.0),
+    Param("z_voxels", int, 10, "voxel: voxels per column", ge=1, le=MAX_Z_VOXELS),
+    Param("mark_threshold", int, 0, "voxel: marked voxels a column may hold and still be free", ge=0),
+    Param("publish_voxel_map", bool, False, "voxel: publish the marked voxels' centres on ~<costmap>/voxel_grid "
+          "(sensor_msgs/PointCloud2; ROS: costmap_2d/VoxelGrid)"),
+    Param("keepout_map_topic", str, "", "Florence: a keep-out map (nav_msgs/OccupancyGrid, map_server's format): "
+          "its occupied cells are lethal, before the inflation ('': none)"),
+    Param("people_topic", str, "", "Florence: the tracked people (user_tracker_ni/TrackedUsers) of a proxemic "
+          "layer, PROXEMIC_PARAMS in ~<costmap>/proxemic/ ('': none)"),
 )
 """A costmap's parameters (``~global_costmap/``, ``~local_costmap/``: costmap_2d's names and defaults)."""
 
@@ -107,6 +122,7 @@ class CostmapConfig:
     footprint: np.ndarray
     sources: tuple
     inputs: dict
+    proxemic: Params | None = None
 
     @classmethod
     def read(cls, get):
@@ -143,7 +159,16 @@ class CostmapConfig:
                 expected_update_rate=s.expected_update_rate,
             ))
             inputs[name] = SourceInput(s.topic or name, s.sensor_frame, s.data_type, s.inf_is_valid)
-        return cls(p, footprint, tuple(sources), inputs)
+        proxemic = None
+        if p.people_topic:
+            cfg = get("proxemic", {})
+            if not isinstance(cfg, dict):
+                raise ParamError(f"~proxemic must be a dictionary of the proxemic layer's parameters, got {cfg!r}")
+            try:
+                proxemic = PROXEMIC_PARAMS.read(cfg.get)
+            except ParamError as exc:
+                raise ParamError(f"~proxemic: {exc}") from None
+        return cls(p, footprint, tuple(sources), inputs, proxemic)
 
     @property
     def size(self):
@@ -170,4 +195,8 @@ class CostmapConfig:
             cost_scaling_factor=p.cost_scaling_factor,
             lethal_cost_threshold=p.lethal_cost_threshold,
             now=now,
+            voxel=({"origin_z": p.origin_z, "z_resolution": p.z_resolution, "z_voxels": p.z_voxels,
+                    "mark_threshold": p.mark_threshold} if p.map_type == "voxel" else None),
+            keepout=bool(p.keepout_map_topic),
+            proxemic=None if self.proxemic is None else dict(self.proxemic),
         )

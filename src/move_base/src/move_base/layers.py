@@ -150,6 +150,13 @@ def polygon_cells(grid, points_world):
     return np.concatenate([ox, lx[keep]]), np.concatenate([oy, ly[keep]])
 
 
+def same_grid(a, b):
+    """Whether two Costmap2D have the same size, resolution and origin."""
+    return (a.costs.shape == b.costs.shape and math.isclose(a.resolution, b.resolution)
+            and math.isclose(a.origin_x, b.origin_x, abs_tol=1e-9)
+            and math.isclose(a.origin_y, b.origin_y, abs_tol=1e-9))
+
+
 class StaticLayer:
     """Costs from a map (costmap_2d StaticLayer, trinary).
 
@@ -201,18 +208,30 @@ class StaticLayer:
         if any is, else NO_INFORMATION if any is, else FREE; cells off the map are left as
         they are. The worst, not the cell at the centre, because a coarser or turned master
         grid would otherwise drop thin walls and table edges."""
+        placed = self.placed(master)
+        if placed is None:
+            return
+        covered, costs = placed
+        if covered is None:
+            master.costs[...] = costs
+        else:
+            master.costs[covered] = costs[covered]
+
+    def same_geometry(self, master):
+        """Whether the map has the master grid's size, resolution and origin, in its frame."""
+        return self.grid is not None and self.pose is None and same_grid(self.grid, master)
+
+    def placed(self, master):
+        """The map on the master grid's cells: (covered, costs), ``covered`` None when the map
+        covers the whole grid cell for cell (``costs`` is then the map's own array), else a mask
+        of the master cells that overlap the map, with ``costs`` (master's shape) the worst of
+        the map cells each covers (see :meth:`update_costs`); None while there is no map (or no
+        pose for a map that needs one)."""
         if self.grid is None or (self.needs_pose and self.pose is None):
-            return
+            return None
         g = self.grid
-        if (
-            self.pose is None
-            and g.costs.shape == master.costs.shape
-            and math.isclose(g.resolution, master.resolution)
-            and math.isclose(g.origin_x, master.origin_x, abs_tol=1e-9)
-            and math.isclose(g.origin_y, master.origin_y, abs_tol=1e-9)
-        ):
-            master.costs[...] = g.costs
-            return
+        if self.same_geometry(master):
+            return None, g.costs
         k = math.ceil(master.resolution / g.resolution - 1e-9) + 1  # samples per cell side
         frac = (np.arange(k) + 0.5) / k
         sx = master.origin_x + (np.arange(master.size_x)[:, None] + frac).ravel() * master.resolution
@@ -230,8 +249,32 @@ class StaticLayer:
         cost = g.costs[np.where(on_map, my, 0), np.where(on_map, mx, 0)]
         rank[on_map] = _STATIC_RANK[cost[on_map]]
         worst = rank.reshape(master.size_y, k, master.size_x, k).max(axis=(1, 3))
-        covered = worst > 0
-        master.costs[covered] = _RANKED_COST[worst[covered]]
+        return worst > 0, _RANKED_COST[worst]
+
+
+class KeepoutLayer(StaticLayer):
+    """Places the robot must not enter, from a map of its own (Nav2's keepout filter; a user draws
+    it over a copy of the robot's map: under tables, rugs, steps).
+
+    Every cell of the keep-out map at or above ``lethal_cost_threshold`` makes the master cells it
+    covers LETHAL_OBSTACLE; every other value (free, unknown, in between) changes nothing. It is
+    written before the inflation, so the robot's whole body keeps out, not only its centre
+    (Nav2's filter acts after the inflation). A map of another size, resolution or origin than
+    the master grid is placed by its own origin and resolution (each master cell lethal when any
+    keep-out cell it covers is); the node warns about it."""
+
+    def __init__(self, lethal_cost_threshold=100):
+        super().__init__(lethal_cost_threshold, track_unknown_space=False)
+
+    def update_costs(self, master):
+        placed = self.placed(master)
+        if placed is None:
+            return
+        covered, costs = placed
+        lethal = costs == LETHAL_OBSTACLE
+        if covered is not None:
+            lethal &= covered
+        master.costs[lethal] = LETHAL_OBSTACLE
 
 
 _STATIC_RANK = np.ones(256, dtype=np.uint8)  # a static cost's rank (static costs are trinary)
@@ -275,12 +318,15 @@ class Observation:
     free_ends: (M, 3) points along rays that saw nothing: readings at/over the sensor's range;
         each clears a ray of length raytrace_range in its direction and marks nothing.
     stamp: time of the reading [s].
+    clear_points: (K, 3) every return whatever its height (the voxel layer clears along the
+        rays to them), or None: ``points``.
     """
 
     origin: np.ndarray
     points: np.ndarray
     free_ends: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     stamp: float = 0.0
+    clear_points: np.ndarray | None = None
 
 
 class ObservationBuffer:
@@ -296,9 +342,11 @@ class ObservationBuffer:
         are dropped. ``now`` [s] (default ``stamp``) is the time it arrived."""
         src = self.source
         points = np.asarray(points, dtype=float).reshape(-1, 3)
+        points = points[np.isfinite(points).all(axis=1)]  # NaN / inf: no reading
         keep = (points[:, 2] >= src.min_obstacle_height) & (points[:, 2] <= src.max_obstacle_height)
         free = np.zeros((0, 3)) if free_ends is None else np.asarray(free_ends, dtype=float).reshape(-1, 3)
-        self.observations.append(Observation(np.asarray(origin, dtype=float).reshape(3), points[keep], free, stamp))
+        self.observations.append(Observation(np.asarray(origin, dtype=float).reshape(3), points[keep], free, stamp,
+                                             clear_points=points))
         self.last_updated = float(stamp if now is None else now)
         self.purge()
 
@@ -367,8 +415,10 @@ class ObstacleLayer:
             for b in self.buffers.values():
                 b.reset_last_updated(now)
 
-    def update(self):
-        """Clear, then mark, with the buffered observations (ROS updateBounds)."""
+    def update(self, clear_discs=None):
+        """Clear, then mark, with the buffered observations (ROS updateBounds). ``clear_discs``
+        (N, 3) x, y, radius [m]: cells to free after the ray tracing and before the marking (where
+        tracked people walked: what a sensor still sees there is marked again)."""
         if self.grid is None:
             return
         for b in self.buffers.values():
@@ -377,8 +427,23 @@ class ObstacleLayer:
         marking = [(b.source, o) for b in self.buffers.values() if b.source.marking for o in b.observations]
         if clearing:
             self._raytrace(clearing)
+        self._clear_discs(clear_discs)
         if marking:
             self._mark(marking)
+
+    def _clear_discs(self, discs):
+        """Free the cells within each disc (x, y, radius) [m] (see :meth:`update`)."""
+        if discs is None or len(discs) == 0 or self.grid is None:
+            return
+        g = self.grid
+        for x, y, r in np.asarray(discs, dtype=float).reshape(-1, 3):
+            rows, cols = _window(g, x, y, 2.0 * r)
+            ys, xs = np.mgrid[rows, cols]
+            if xs.size == 0:
+                continue
+            wx, wy = g.map_to_world(xs, ys)
+            inside = (wx - x) ** 2 + (wy - y) ** 2 <= r * r
+            self.clear_cells(xs[inside], ys[inside])
 
     def _raytrace(self, clearing):
         g = self.grid
@@ -432,6 +497,14 @@ class ObstacleLayer:
             mx, my, inside = g.world_to_map(p[near, 0], p[near, 1])
             g.costs[my[inside], mx[inside]] = LETHAL_OBSTACLE
 
+    def band(self, z_band):
+        """Cells marked at heights within ``z_band`` (a 2-D layer: every lethal cell)."""
+        return self.grid.costs == LETHAL_OBSTACLE
+
+    def clear_cells(self, mx, my):
+        """Cells (mx, my) (index arrays) become FREE_SPACE: the robot's footprint."""
+        self.grid.costs[my, mx] = FREE_SPACE
+
     def update_costs(self, master):
         """Combine into the master grid by maximum, as ROS's updateWithMax: cells of this layer at
         NO_INFORMATION are skipped; a master cell at NO_INFORMATION takes this layer's cost."""
@@ -446,16 +519,17 @@ class ObstacleLayer:
         """ROS ClearCostmapRecovery on this layer: every cell outside the square of side ``size``
         [m] centred on (x, y) [m] becomes NO_INFORMATION (no say in the master grid). The kept
         window is the cells strictly between the corner cells (ROS's ``x > start_x && x < end_x``),
-        corner cells by truncation (worldToMapNoBounds)."""
+        corner cells by truncation (worldToMapNoBounds). Returns the mask of the cells kept."""
         g = self.grid
         if g is None:
-            return
+            return None
         sx, sy = g.world_to_map_no_bounds(x - size / 2.0, y - size / 2.0)
         ex, ey = g.world_to_map_no_bounds(x - size / 2.0 + size, y - size / 2.0 + size)
         ix = np.arange(g.size_x)
         iy = np.arange(g.size_y)
         keep = ((iy > sy) & (iy < ey))[:, None] & ((ix > sx) & (ix < ex))[None, :]
         g.costs[~keep] = NO_INFORMATION
+        return keep
 
     def clear_unknown_around(self, x, y, size):
         """Cells at NO_INFORMATION in the square of side ``size`` [m] centred on (x, y) [m]
@@ -479,6 +553,13 @@ def _window(grid, x, y, size):
     lo_x, lo_y = max(lo_x, 0), max(lo_y, 0)
     hi_x, hi_y = min(hi_x, grid.size_x - 1), min(hi_y, grid.size_y - 1)
     return slice(lo_y, max(hi_y + 1, lo_y)), slice(lo_x, max(hi_x + 1, lo_x))
+
+
+def _combine_max(master, costs):
+    """ObstacleLayer.update_costs with the costs array ``costs`` (the layer's grid, edited)."""
+    old = master.costs
+    write = (costs != NO_INFORMATION) & ((old == NO_INFORMATION) | (old < costs))
+    old[write] = costs[write]
 
 
 # --- inflation layer ---------------------------------------------------------------------------
@@ -577,6 +658,9 @@ class LayeredCostmap:
         cost_scaling_factor=10.0,
         lethal_cost_threshold=100,
         now=0.0,
+        voxel=None,
+        keepout=False,
+        proxemic=None,
     ):
         self.rolling_window = bool(rolling_window)
         self.track_unknown_space = bool(track_unknown_space)
@@ -590,14 +674,29 @@ class LayeredCostmap:
         self.inscribed_radius = inscribed_radius(self.footprint)
         self.circumscribed_radius = circumscribed_radius(self.footprint)
         self.static = StaticLayer(lethal_cost_threshold, track_unknown_space) if static_map else None
-        self.obstacles = ObstacleLayer(sources, track_unknown_space, now)
+        if voxel is not None:
+            from move_base.voxel_layer import VoxelLayer
+
+            self.obstacles = VoxelLayer(sources, track_unknown_space, now, **voxel)
+        else:
+            self.obstacles = ObstacleLayer(sources, track_unknown_space, now)
         self.obstacles.match_size(self.costmap)
+        self.keepout = KeepoutLayer(lethal_cost_threshold) if keepout else None
+        if proxemic is not None:
+            from move_base.people_layer import ProxemicLayer
+
+            self.people = ProxemicLayer(**proxemic)
+        else:
+            self.people = None
+        self._now = None  # [s] time of the last update (the people's costs are for it)
+        self._robot = None  # (x, y) [m] of the robot at the last update
         self.inflation = InflationLayer(self.inscribed_radius, inflation_radius, cost_scaling_factor)
         self._under_robot = None  # (mx, my) master cells under the footprint at the last update
 
     @property
     def layers(self):
-        return [layer for layer in (self.static, self.obstacles, self.inflation) if layer is not None]
+        return [layer for layer in (self.static, self.obstacles, self.keepout, self.people, self.inflation)
+                if layer is not None]
 
     def has_map(self):
         """True when the static layer got its map, or there is no static layer."""
@@ -630,30 +729,60 @@ class LayeredCostmap:
         if self.static is not None:
             self.static.pose = None if pose is None else tuple(float(v) for v in pose)
 
-    def update(self, robot_x, robot_y, robot_yaw=None):
-        """One costmap cycle for a robot at (robot_x, robot_y) [m]: move a rolling window, clear
+    def set_keepout_map(self, data, width, height, resolution, origin_x, origin_y, frame_id="", needs_pose=False):
+        """Give the keep-out layer its map (arguments as :meth:`set_static_map`); the grid keeps
+        its geometry. Returns whether the keep-out map has the static map's geometry (False: it is
+        placed by its own origin and resolution)."""
+        if self.keepout is None:
+            raise RuntimeError("this costmap has no keep-out layer")
+        self.keepout.set_map(data, width, height, resolution, origin_x, origin_y, frame_id, needs_pose)
+        return self.keepout_matches_map()
+
+    def keepout_matches_map(self):
+        """Whether the keep-out map has the static map's size, resolution and origin (the master
+        grid's without a static map); None before either map came."""
+        if self.keepout is None or self.keepout.grid is None:
+            return None
+        if self.static is not None:
+            if self.static.grid is None:
+                return None
+            return same_grid(self.keepout.grid, self.static.grid)
+        return same_grid(self.keepout.grid, self.costmap)
+
+    def set_keepout_pose(self, pose):
+        """Where the keep-out map's frame is in the grid's frame now: (x [m], y [m], yaw [rad])."""
+        if self.keepout is not None:
+            self.keepout.pose = None if pose is None else tuple(float(v) for v in pose)
+
+    def update(self, robot_x, robot_y, robot_yaw=None, now=None):
+        """One costmap cycle for a robot at (robot_x, robot_y) [m] at time ``now`` [s] (the people's
+        costs are for it; None: the last message's people as they were): move a rolling window, clear
         and mark the obstacle layer, clear the robot's footprint in it (heading ``robot_yaw``
         [rad]; costmap_2d clears the cells under the robot: whatever is there is the robot
         itself or a stale mark), then rebuild the master grid: default, static (overwrite),
         obstacles (maximum), inflation.
 
-        A rolling window also frees the cells under the footprint in what the static layer
-        wrote: a map placed through the localization's pose is off by its error, and a map cell
+        A rolling window also frees the cells under the footprint in what the static and keep-out
+        layers wrote: a map placed through the localization's pose is off by its error, and a map cell
         under the robot is that error, not an obstacle. Left in, it would hold every trajectory
         (the footprint's outline on a lethal cell) with no recovery to clear it; the cells just
         outside the footprint stay, so the robot can move off the map's obstacle, not into it."""
         c = self.costmap
+        self._now = now
+        self._robot = (float(robot_x), float(robot_y))
         if self.rolling_window:
             w, h = c.size_m
             c.update_origin(robot_x - w / 2.0, robot_y - h / 2.0)
             self.obstacles.update_origin(robot_x - w / 2.0, robot_y - h / 2.0)
-        self.obstacles.update()
+        # where tracked people walked lately, the sensors' marks are theirs, not furniture's: freed
+        # before the newest readings mark what is there now (a walker who left the Kinect's view
+        # would otherwise leave a trail of voxels behind)
+        self.obstacles.update(None if self.people is None else self.people.trail(now))
         self._under_robot = None
         if robot_yaw is not None:
             self._under_robot = polygon_cells(c, transform_footprint(self.footprint, robot_x, robot_y, robot_yaw))
             if self.obstacles.grid is not None:  # the same geometry as the master grid
-                mx, my = self._under_robot
-                self.obstacles.grid.costs[my, mx] = FREE_SPACE
+                self.obstacles.clear_cells(*self._under_robot)
         self._recombine()
 
     def reset_layers(self, now=None):
@@ -676,15 +805,85 @@ class LayeredCostmap:
         self._recombine()
 
     def _recombine(self):
-        c = self.costmap
+        self._combine(self.costmap, people=True)
+
+    def _combine(self, c, people=True, obstacles=None):
+        """Rebuild grid ``c`` (the master's geometry) from the layers: default, static
+        (overwrite), obstacles (maximum; ``obstacles`` replaces the obstacle layer's grid),
+        keep-out (lethal), in a rolling window the cells under the robot freed (see
+        :meth:`update`), people (with ``people``), inflation."""
         c.costs[...] = c.default_value
         if self.static is not None:
             self.static.update_costs(c)
-            if self.rolling_window and self._under_robot is not None:
-                mx, my = self._under_robot
-                c.costs[my, mx] = FREE_SPACE
-        self.obstacles.update_costs(c)
+        if obstacles is None:
+            self.obstacles.update_costs(c)
+        else:
+            _combine_max(c, obstacles)
+        if self.keepout is not None:
+            self.keepout.update_costs(c)
+        if self.rolling_window and self._under_robot is not None:
+            mx, my = self._under_robot
+            c.costs[my, mx] = FREE_SPACE
+        if people and self.people is not None:
+            # no lethal person cell within the inscribed radius and two cells of the robot: a person
+            # standing close must not wall in the robot's own cell (no plan could leave it)
+            robot = None if self._robot is None else (*self._robot, self.inscribed_radius + 2.0 * c.resolution)
+            self.people.update_costs(c, self._now, robot)
         self.inflation.update_costs(c)
+
+    def map_only(self):
+        """A copy of the master grid built from the maps alone (static and keep-out layers and their
+        inflation): no sensor marks, no people. Where a plan exists on it but not on the master
+        grid, something the map does not have stands in the way: people, or things that move."""
+        c = self.costmap.copy()
+        empty = np.full(c.costs.shape, NO_INFORMATION, dtype=np.uint8)
+        self._combine(c, people=False, obstacles=empty)
+        return c
+
+    def unmapped_marks(self, x, y, radius, z_band=(0.05, 0.35), tolerance=0.15):
+        """(N, 2) [m] the returns of the sensors' newest readings within ``radius`` [m] of (x, y)
+        and between the heights ``z_band`` [m] (a person's legs, where the laser sees them) that lie
+        farther than ``tolerance`` [m] (the localization's error) from every lethal cell of the
+        static and keep-out layers: what may be a person the tracker does not know. Only what the
+        sensors see now counts (not older marks of the obstacle layer: a person who walked on is
+        no longer there). One point per cell of the grid."""
+        g = self.obstacles.grid
+        if g is None:
+            return np.zeros((0, 2))
+        pts = [b.observations[-1].points for b in self.obstacles.buffers.values()
+               if b.source.marking and b.observations]
+        if not pts:
+            return np.zeros((0, 2))
+        p = np.concatenate(pts)
+        keep = ((p[:, 2] >= z_band[0]) & (p[:, 2] <= z_band[1])
+                & ((p[:, 0] - x) ** 2 + (p[:, 1] - y) ** 2 <= radius * radius))
+        mx, my, inside = g.world_to_map(p[keep, 0], p[keep, 1])
+        mx, my = mx[inside], my[inside]
+        unmapped = ~self._mapped(tolerance)[my, mx]
+        cells = np.unique(my[unmapped] * g.size_x + mx[unmapped])
+        wx, wy = g.map_to_world(cells % g.size_x, cells // g.size_x)
+        return np.column_stack([np.atleast_1d(wx), np.atleast_1d(wy)]).reshape(-1, 2)
+
+    def _mapped(self, tolerance):
+        """Cells within ``tolerance`` [m] of a lethal cell of the static and keep-out layers, on the
+        master's geometry (the maps placed as at the last update)."""
+        c = self.costmap
+        key = (id(self.static.grid) if self.static is not None else None,
+               id(self.keepout.grid) if self.keepout is not None else None,
+               self.static.pose if self.static is not None else None,
+               self.keepout.pose if self.keepout is not None else None, c.origin_x, c.origin_y, tolerance)
+        if getattr(self, "_mapped_key", None) != key:
+            scratch = Costmap2D(c.size_x, c.size_y, c.resolution, c.origin_x, c.origin_y)
+            lethal = np.zeros(c.costs.shape, dtype=bool)
+            for layer in (self.static, self.keepout):
+                if layer is not None:
+                    scratch.costs[...] = FREE_SPACE
+                    layer.update_costs(scratch)
+                    lethal |= scratch.costs == LETHAL_OBSTACLE
+            cells = max(0, math.ceil(tolerance / c.resolution))
+            self._mapped_mask = ndimage.binary_dilation(lethal, iterations=cells) if cells and lethal.any() else lethal
+            self._mapped_key = key
+        return self._mapped_mask
 
     def footprint_cost(self, x, y, yaw):
         """:func:`footprint_cost` of the robot at (x, y) [m] heading ``yaw`` [rad] on the master grid."""

@@ -23,6 +23,7 @@ log = logging.getLogger(__name__)
 
 _ZERO = (0.0, 0.0, 0.0)
 NO_VALID_TRAJECTORY = "no valid trajectory (all samples collide)"
+NO_VALID_TRAJECTORY_PEOPLE = "no valid trajectory: the others would come nearer than min_person_distance to a person"
 # [m] within this of the goal position a turn to the goal yaw that collides is a failure; farther
 # (at the edge of xy_goal_tolerance) the robot drives on toward the goal position first
 _AT_GOAL = 0.05
@@ -155,11 +156,17 @@ class LocalPlanner:
         self._reached_goal = False
         self._goal = None  # the last pose of the plan set last
         self._last_cmd = _ZERO  # the command of the last cycle
+        # Florence: with a person in the way (the forward motion that would win is refused for
+        # min_person_distance), stop and say so instead of turning on the spot or backing up;
+        # move_base clears it while it gives way
+        self.stop_for_people = True
         if params.turn_before_tolerance:  # compile (or load) the kernel now, not near the first goal
             goal_turn_times(params, (0.0, 0.0, 0.0), 0.0, 0.0, (0.0, 0.0, 0.0), 0.0, 1.0)
 
-    def set_plan(self, poses):
-        """New global plan (N, 3) [m, m, rad]; clears the goal-reached flag.
+    def set_plan(self, poses, giving_way=False):
+        """New global plan (N, 3) [m, m, rad]; clears the goal-reached flag. ``giving_way``: the
+        plan leads out of people's way (the robot turns on the spot or backs up near them instead
+        of stopping for them: see ``stop_for_people``).
 
         Every plan clears the oscillation flags and ends an escape, so a replan gives the robot
         that backed up (or was kept from turning back) a fresh start. A plan to a new goal also
@@ -172,6 +179,7 @@ class LocalPlanner:
         same_goal = (self._goal is not None and len(poses) > 0
                      and np.allclose(poses[-1], self._goal, rtol=0.0, atol=1e-9))
         self.global_plan = poses.copy()
+        self.stop_for_people = not giving_way
         self._goal = poses[-1].copy() if len(poses) else None
         self._reached_goal = False
         self.planner.reset_oscillation_flags()
@@ -185,6 +193,14 @@ class LocalPlanner:
     def is_goal_reached(self):
         """True once the robot was within both goal tolerances (since the last :meth:`set_plan`)."""
         return self._reached_goal
+
+    def set_people(self, people, still=None):
+        """The tracked people for ``min_person_distance``: (P, 4) x, y [m], vx, vy [m/s] in the
+        costmap frame of the next cycles; ``still`` (S, 2) [m]: points that may be people the
+        tracker does not know (legs the laser sees where the map has nothing), kept at the same
+        distance."""
+        self.planner.people = np.asarray(people, dtype=float).reshape(-1, 4)
+        self.planner.still_people = np.zeros((0, 2)) if still is None else np.asarray(still, float).reshape(-1, 2)
 
     def compute_velocity(self, costmap, robot_pose, robot_vel, plan):
         """One control cycle (computeVelocityCommands).
@@ -270,8 +286,12 @@ class LocalPlanner:
                     return True, cmd, "final approach"
             best = self.planner.find_best_command(costmap, x, y, yaw, vx, vy, vth, window[:, :2])
         cmd, cost, points = best
+        if self.stop_for_people and self.planner.blocked_by_people:
+            return False, _ZERO, NO_VALID_TRAJECTORY_PEOPLE
         if cost < 0:
             log.debug("no legal trajectory (cost %.1f)", cost)
+            if self.planner.refused_for_people:
+                return False, _ZERO, NO_VALID_TRAJECTORY_PEOPLE
             return False, _ZERO, NO_VALID_TRAJECTORY
         self.local_plan = points
         return True, cmd, ""
@@ -424,8 +444,20 @@ class LocalPlanner:
         return np.column_stack([px, py, th])
 
     def _path_is_free(self, costmap, points):
-        """Whether the footprint stays clear of lethal cells at every pose (x, y, yaw) of ``points``."""
-        return poses_are_free(costmap, points, self.planner.footprint)
+        """Whether the footprint stays clear of lethal cells at every pose (x, y, yaw) of ``points``
+        and the path does not come nearer than min_person_distance to a person (standing where
+        they are) than its first pose (the paths checked here are the Florence final approach's and
+        braking turns: they end in a stop)."""
+        if not poses_are_free(costmap, points, self.planner.footprint):
+            return False
+        people, still = self.planner.people, self.planner.still_people
+        if self.params.min_person_distance > 0.0 and (len(people) or len(still)):
+            from move_base.people_layer import approaches
+
+            pts = np.asarray(points, dtype=float).reshape(1, -1, 3)
+            return not approaches(pts, np.zeros(pts.shape[:2]), people, self.params.min_person_distance,
+                                  still=still)[0]
+        return True
 
     def _stopped_moving(self, vx, vy):
         """Translation within trans_stopped_velocity (the rotation may go on)."""

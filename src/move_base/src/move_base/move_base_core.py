@@ -12,16 +12,33 @@ recoveries are stepped by the cycle so that a cancel stops even an in-place rota
 
 The collaborators are injected (duck-typed), so the machine is tested with fakes:
     planner(start, goal) -> PlanResult-like (ok, poses (N, 3), reason, permanent: bool)
-    controller: set_plan(poses), compute_velocity(pose) -> (ok, (vx, vy, vth), reason),
-                is_goal_reached() -> bool
+    controller: set_plan(poses, giving_way=False), compute_velocity(pose) -> (ok, (vx, vy, vth),
+                reason), is_goal_reached() -> bool
     recoveries: objects with ``name`` and ``start(now, pose)``, ``step(now, pose) -> (done, cmd)``
     sensors_current() -> (ok, reason)
+    people (optional): blocking(pose, goal, reason) -> why people stand in the way after a failed
+        plan (reason None) or control (the controller's reason), or ''; clear(pose, poses) -> whether
+        nobody stands close in front along the plan ``poses``; give_way(pose) -> a pose (x, y, yaw)
+        out of their way, or None; plan_to(start, pose) -> PlanResult-like.
+
+Florence's WAITING state (``person_wait_timeout`` > 0): a plan or a control that fails because
+people stand in the way (``people.blocking``) makes the robot stand and replan every cycle
+instead of counting toward the planner's or controller's patience; it goes on (CONTROLLING) as
+soon as a plan and a valid command exist again and nobody stands close in front (``people.clear``:
+a way round a person close in front would creep past them). After ``give_way_after`` it drives to
+``people.give_way`` (a place out of the people's way: a person may be waiting for the robot) and
+waits there. After
+``person_wait_timeout`` without a valid command the usual recoveries run, and the goal is not
+waited for again until the robot moves on.
 """
 
 import logging
 import math
 from dataclasses import dataclass, field
 
+import numpy as np
+
+from florence_common import angles
 from florence_common.params import Param, ParamTable
 
 log = logging.getLogger(__name__)
@@ -29,6 +46,7 @@ log = logging.getLogger(__name__)
 PLANNING = "PLANNING"
 CONTROLLING = "CONTROLLING"
 CLEARING = "CLEARING"
+WAITING = "WAITING"  # Florence: people stand in the way; the robot waits (or gives way)
 
 PLANNING_R = "PLANNING_R"
 CONTROLLING_R = "CONTROLLING_R"
@@ -60,6 +78,13 @@ PARAMS = ParamTable(
     Param("max_recovery_restarts", int, -1, "Florence: how often the recovery list may start over from its first "
           "entry after apparent progress (moved oscillation_distance, a plan or a command found again) before "
           "the goal is aborted (-1: no limit, ROS)", ge=-1),
+    Param("person_wait_timeout", float, 0.0, "Florence: when people stand in the way (no plan, but one on the "
+          "maps alone; or no trajectory that keeps min_person_distance), wait this long for them, replanning "
+          "every cycle, before the recoveries run; the robot goes on as soon as the way is free (0: no waiting, "
+          "ROS)", unit="s", ge=0.0),
+    Param("give_way_after", float, 0.0, "Florence: while waiting, after this long move to the nearest place out of "
+          "the way of the people who block it, then wait there (a person may be waiting for the robot to "
+          "leave their way; 0: never)", unit="s", ge=0.0),
 )
 """move_base's own parameters (``~``: ROS's names and defaults)."""
 
@@ -97,18 +122,41 @@ class _GoalState:
     last_plan_time: float = -math.inf
     have_plan: bool = False
     reasons: dict = field(default_factory=dict)
+    wait_since: float | None = None  # [s] when people began to stand in the way (None: not waiting)
+    waited_out: bool = False  # waited person_wait_timeout since the last valid command
+    giving_way: tuple | None = None  # the pose the robot drives to, out of the people's way
+    gave_way: int = 0  # give-way moves in this wait
+    wait_trigger: str = PLANNING_R
+    wait_text: str = ""  # why the robot waited, once it waited person_wait_timeout out
+
+
+def _goes_on(cmd, pose, poses, ahead=0.5, turn=1.0):
+    """Whether a command found while waiting for people goes on toward the goal: it drives
+    forward, or the plan starts more than ``turn`` [rad] off the robot's heading (the robot must
+    turn first). A turn on the spot with the plan ahead, toward the people, would only take the
+    people out of the sensors' view."""
+    if cmd[0] > 0.01:
+        return True
+    poses = np.asarray(poses, dtype=float).reshape(-1, 3)
+    d = np.hypot(poses[:, 0] - pose[0], poses[:, 1] - pose[1])
+    far = np.nonzero(d >= ahead)[0]
+    if len(far) == 0:
+        return True  # at the goal: turning to its yaw
+    tx, ty = poses[far[0], :2]
+    return abs(angles.diff(math.atan2(ty - pose[1], tx - pose[0]), pose[2])) > turn
 
 
 class MoveBaseCore:
     """The goal-level state machine of move_base; ``params``: :data:`PARAMS`' values
     (``core_params(...)`` or the node's ``read_params(PARAMS)``)."""
 
-    def __init__(self, params, planner, controller, recoveries, sensors_current=None):
+    def __init__(self, params, planner, controller, recoveries, sensors_current=None, people=None):
         self.params = params
         self.planner = planner
         self.controller = controller
         self.recoveries = list(recoveries)
         self.sensors_current = sensors_current or (lambda: (True, ""))
+        self.people = people
         self.g = None
 
     # --- goal life cycle ----------------------------------------------------------------------
@@ -164,6 +212,11 @@ class MoveBaseCore:
                                    f"({p.controller_patience:.1f} s): {why}")
             return CycleResult(cmd=ZERO, text=g.reasons[CONTROLLING_R])
 
+        if g.state == WAITING:
+            g.last_oscillation_reset = now  # standing for people is not oscillating
+            g.oscillation_pose = (pose[0], pose[1])
+            return self._wait(now, pose)
+
         result = CycleResult()
         if g.state == PLANNING or (
             g.state == CONTROLLING and p.planner_frequency > 0.0 and now - g.last_plan_time >= 1.0 / p.planner_frequency
@@ -202,6 +255,9 @@ class MoveBaseCore:
         if getattr(plan, "permanent", False):
             return self._abort(plan.reason)
         if g.state == PLANNING:
+            waiting = self._maybe_wait(now, pose, None, PLANNING_R)
+            if waiting is not None:
+                return waiting
             g.planning_retries += 1
             too_long = now - g.last_valid_plan > p.planner_patience
             too_many = 0 <= p.max_planning_retries < g.planning_retries
@@ -230,11 +286,16 @@ class MoveBaseCore:
         ok, cmd, reason = self.controller.compute_velocity(tuple(pose))
         if ok:
             g.last_valid_control = now
+            g.wait_since = None
+            g.waited_out = False
             if g.trigger == CONTROLLING_R:
                 self._restart_recoveries(g)
             result.cmd = tuple(cmd)
             return result
         g.reasons[CONTROLLING_R] = reason
+        waiting = self._maybe_wait(now, pose, reason, CONTROLLING_R)
+        if waiting is not None:
+            return waiting
         if now - g.last_valid_control > p.controller_patience:
             g.state = CLEARING
             g.trigger = CONTROLLING_R
@@ -272,6 +333,87 @@ class MoveBaseCore:
         g.last_valid_plan = now
         return CycleResult(cmd=ZERO, text=f"recovery {name} done", started_recovery=started)
 
+    # --- waiting for people (Florence) -----------------------------------------------------
+    def _maybe_wait(self, now, pose, reason, trigger):
+        """WAITING when people stand in the way of this failed plan (``reason`` None) or control
+        (the controller's ``reason``) and the goal has not been waited for since the last valid
+        command; else None (ROS's handling goes on)."""
+        g, p = self.g, self.params
+        if self.people is None or p.person_wait_timeout <= 0.0 or g.waited_out:
+            return None
+        why = self.people.blocking(tuple(pose), g.goal, reason)
+        if not why:
+            return None
+        if g.wait_since is None:
+            g.wait_since = now
+            g.gave_way = 0
+            log.info("waiting for people: %s", why)
+        g.state = WAITING
+        g.wait_trigger = trigger
+        g.reasons[trigger] = why
+        g.giving_way = None
+        return CycleResult(cmd=ZERO, text=f"waiting: {why}")
+
+    def _wait(self, now, pose):
+        """One cycle of WAITING: give way while a give-way move runs; else plan to the goal and
+        try the controller, going on (CONTROLLING) with the first valid command; back to ROS's
+        handling when no people block any more; to the recoveries after person_wait_timeout."""
+        g, p = self.g, self.params
+        waited = now - g.wait_since
+        if waited > p.person_wait_timeout:
+            g.waited_out = True
+            g.giving_way = None
+            g.state = CLEARING
+            g.trigger = g.wait_trigger
+            g.reasons[g.trigger] = g.wait_text = (f"people stood in the way for {waited:.0f} s (person_wait_timeout "
+                                                  f"{p.person_wait_timeout:.0f} s): "
+                                                  f"{g.reasons.get(g.wait_trigger, '')}")
+            return CycleResult(cmd=ZERO, text=g.reasons[g.trigger])
+        if g.giving_way is not None:
+            ok, cmd, reason = self.controller.compute_velocity(tuple(pose))
+            if ok and not self.controller.is_goal_reached():
+                return CycleResult(cmd=tuple(cmd), text="giving way to people")
+            log.info("gave way: %s", "arrived" if ok else reason)
+            g.giving_way = None
+        # the goal again, every cycle while standing: go on with the first valid command
+        plan = self.planner(tuple(pose), g.goal)
+        g.last_plan_time = now
+        reason = None
+        if plan.ok:
+            g.have_plan = True
+            self.controller.set_plan(plan.poses)
+            ok, cmd, reason = self.controller.compute_velocity(tuple(pose))
+            if ok and not _goes_on(cmd, pose, plan.poses):
+                ok, reason = False, "only a turn on the spot toward the people"
+            if ok and not self.people.clear(tuple(pose), plan.poses):
+                # a way round a person close in front is no way on: it would creep past them
+                ok, reason = False, "a person is close in front"
+            if ok:
+                g.planning_retries = 0
+                g.last_valid_plan = g.last_valid_control = g.last_oscillation_reset = now
+                g.wait_since = None
+                g.state = CONTROLLING
+                log.info("the way is free after %.1f s: going on", waited)
+                return CycleResult(cmd=tuple(cmd), new_plan=plan, text="the way is free: going on")
+        why = self.people.blocking(tuple(pose), g.goal, reason)
+        if not why:  # stuck, but not for people any more: ROS's patience from now
+            g.state = CONTROLLING if plan.ok else PLANNING
+            g.last_valid_plan = g.last_valid_control = now
+            g.wait_since = None
+            return CycleResult(cmd=ZERO, text=reason or plan.reason)
+        g.reasons[g.wait_trigger] = why
+        if p.give_way_after > 0.0 and waited >= p.give_way_after * (g.gave_way + 1) and g.gave_way < 3:
+            g.gave_way += 1
+            target = self.people.give_way(tuple(pose))
+            if target is not None:
+                aside = self.people.plan_to(tuple(pose), target)
+                if aside.ok:
+                    self.controller.set_plan(aside.poses, giving_way=True)
+                    g.giving_way = tuple(target)
+                    log.info("giving way: to (%.2f, %.2f)", target[0], target[1])
+                    return CycleResult(cmd=ZERO, text="giving way to people")
+        return CycleResult(cmd=ZERO, text=f"waiting: {why}")
+
     @staticmethod
     def _restart_recoveries(g):
         if g.recovery_index > 0:
@@ -288,6 +430,8 @@ class MoveBaseCore:
         after = "even after executing recovery behaviors" if self.params.recovery_behavior_enabled and \
             self.recoveries else "(recovery behaviours disabled)"
         detail = g.reasons.get(g.trigger, "")
+        if g.wait_text and g.wait_text not in detail:
+            detail = f"{detail} (before that, {g.wait_text})" if detail else g.wait_text
         return f"{what} {after}: {detail}" if detail else f"{what} {after}."
 
     def _abort(self, text):

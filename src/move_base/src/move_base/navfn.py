@@ -417,12 +417,18 @@ class NavfnPlanner:
         mx, my = robot_cell
         return (max(mx - hx, 0), max(my - hy, 0), min(mx + hx + 1, costmap.size_x), min(my + hy + 1, costmap.size_y))
 
-    def make_plan(self, costmap, start, goal, tolerance=None):
+    def make_plan(self, costmap, start, goal, tolerance=None, start_clearance=0.0):
         """Plan from ``start`` = (x [m], y [m], yaw [rad]) to ``goal`` (same) on ``costmap``.
 
         ``tolerance`` [m] (``default_tolerance`` when None): if the goal itself has no potential
         (obstacle, unreachable), the reachable point of the square ``goal +- tolerance`` sampled
         at the costmap's resolution closest to the goal is planned to instead.
+        ``start_clearance`` [m] (Florence): cells within it of the start that are inscribed (253,
+        not lethal) are passable at the highest traversal cost, so a robot whose centre stands in
+        the inflated ring of a wall or a person (its outline clear of them, as the local planner
+        allows) can still plan its way out; ROS frees the robot's cell only, and its neighbours
+        then wall it in.
+
         Returns a :class:`PlanResult`; the costmap is not modified.
         """
         tol = self.default_tolerance if tolerance is None else float(tolerance)
@@ -442,6 +448,8 @@ class NavfnPlanner:
                          f"({self.planner_window_x:.2f} x {self.planner_window_y:.2f} m around the robot)")
         rcell = (robot_cell[0] - x0, robot_cell[1] - y0)
         trav = translate_costs(costmap.costs[y0:y1, x0:x1], self.allow_unknown, rcell)
+        if start_clearance > 0.0:
+            _open_start(trav, costmap.costs[y0:y1, x0:x1], rcell, start_clearance / costmap.resolution)
         # the wave may stop early only when the goal cell can get a potential
         target = None
         if goal_cell is not None and trav[goal_cell[1] - y0, goal_cell[0] - x0] < COST_OBS:
@@ -507,6 +515,21 @@ class NavfnPlanner:
         d2 = np.where(reachable, (px - gx) ** 2 + (py - gy) ** 2, np.inf)
         best = int(np.argmin(d2))
         return float(px[best]), float(py[best])
+
+
+def _open_start(trav, costs, cell, radius_cells):
+    """Make the inscribed cells (253) of ``costs`` within ``radius_cells`` of ``cell`` passable in
+    the traversal costs ``trav`` (in place), at COST_OBS - 1."""
+    r = math.ceil(radius_cells)
+    x0, y0 = max(cell[0] - r, 0), max(cell[1] - r, 0)
+    x1, y1 = min(cell[0] + r + 1, costs.shape[1] - 1), min(cell[1] + r + 1, costs.shape[0] - 1)
+    x0, y0 = max(x0, 1), max(y0, 1)  # the outer ring stays an obstacle
+    if x0 >= x1 or y0 >= y1:
+        return
+    ys, xs = np.mgrid[y0:y1, x0:x1]
+    near = (xs - cell[0]) ** 2 + (ys - cell[1]) ** 2 <= radius_cells * radius_cells
+    near &= costs[y0:y1, x0:x1] == INSCRIBED_INFLATED_OBSTACLE
+    trav[y0:y1, x0:x1][near] = COST_OBS - 1
 
 
 def _with_headings(xs, ys, goal_yaw):

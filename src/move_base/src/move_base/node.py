@@ -50,9 +50,16 @@ from move_base import move_base_core, navfn
 from move_base.costmap_2d import LETHAL_OBSTACLE
 from move_base.costmap_ros import Costmap2DROS
 from move_base.layers import footprint_cost
-from move_base.local_planner import LocalPlanner
-from move_base.move_base_core import CLEARING, MoveBaseCore
-from move_base.navfn import NavfnPlanner
+from move_base.local_planner import NO_VALID_TRAJECTORY_PEOPLE, LocalPlanner
+from move_base.move_base_core import CLEARING, WAITING, MoveBaseCore
+from move_base.navfn import NavfnPlanner, compute_potential, translate_costs
+from move_base.people_layer import (
+    GIVE_WAY_KEEP_OFF,
+    GIVE_WAY_MAX_COST,
+    GIVE_WAY_MIN_DISTANCE,
+    RecentPoints,
+    give_way_cells,
+)
 from move_base.recovery import (
     CLEAR_COSTMAP_PARAMS,
     ClearCostmapRecovery,
@@ -121,15 +128,17 @@ def quaternion_problem(q):
 
 def goal_is_hopeless(layered, x, y):
     """True when no recovery can make (x, y) [m] reachable: off a global costmap that covers the
-    static map, or on a lethal cell of the static map itself (a wall, furniture)."""
+    static map, or on a lethal cell of the static map itself (a wall, furniture) or of the
+    keep-out map (a place the robot must not enter)."""
     if layered.rolling_window:
         return False
     if not layered.costmap.contains(x, y):
         return True
-    static = getattr(layered, "static", None)
-    if static is None or static.grid is None:
-        return False
-    return static.grid.cost_at(x, y) == LETHAL_OBSTACLE
+    for layer in (getattr(layered, "static", None), getattr(layered, "keepout", None)):
+        if layer is not None and layer.grid is not None and layer.pose is None and \
+                layer.grid.cost_at(x, y) == LETHAL_OBSTACLE:
+            return True
+    return False
 
 
 def path_msg(poses, frame, stamp):
@@ -157,8 +166,8 @@ class ControllerAdapter:
     def __init__(self, node):
         self.node = node
 
-    def set_plan(self, poses):
-        self.node.local_planner.set_plan(np.asarray(poses, dtype=float))
+    def set_plan(self, poses, giving_way=False):
+        self.node.local_planner.set_plan(np.asarray(poses, dtype=float), giving_way)
 
     def compute_velocity(self, pose):
         node = self.node
@@ -172,7 +181,15 @@ class ControllerAdapter:
                                             f"{local.global_frame}")
         # the local planner's stored copy: it prunes it as the robot advances (TrajectoryPlannerROS)
         plan_local = np.asarray(pose2d.compose(to_local, node.local_planner.global_plan)).reshape(-1, 3)
+        still = None
+        if node.local_planner.params.min_person_distance > 0.0:
+            # leg-height returns the maps do not have, near the robot, seen in the last 1.5 s: people
+            # the tracker may not know (remembered: the robot may have turned away from them)
+            still = node.unmapped_near(pose, 2.5)
+            still = pose2d.transform_points(to_local, still) if len(still) else still
         with local.lock:
+            if local.layered.people is not None:
+                node.local_planner.set_people(local.layered.people.current(rospy.get_time())[0], still)
             ok, cmd, reason = node.local_planner.compute_velocity(local.costmap, here, node.robot_velocity(),
                                                                   plan_local)
         stamp = rospy.Time.now()
@@ -184,6 +201,103 @@ class ControllerAdapter:
 
     def is_goal_reached(self):
         return self.node.local_planner.is_goal_reached()
+
+
+class PeopleAdapter:
+    """The state machine's view of people (Florence's waiting and giving way), from the global
+    costmap: the tracked people of its proxemic layer, and what its sensors see at leg height where
+    the map has nothing (a person the tracker does not know, standing close or out of the Kinect's
+    view; or something that was moved)."""
+
+    def __init__(self, node):
+        self.node = node
+
+    def _people(self):
+        """(P, 4) x, y [m], vx, vy [m/s] of the tracked people in the global frame now."""
+        layer = self.node.planner_costmap.layered.people
+        if layer is None:
+            return np.zeros((0, 4))
+        with self.node.planner_costmap.lock:
+            return layer.current(rospy.get_time())[0]
+
+    def _blockers(self, pose, radius):
+        """(B, 4) the tracked people and the unmapped leg-height returns (still) within ``radius`` [m]."""
+        people = self._people()
+        still = self.node.unmapped_near(pose, radius)
+        rows = [people[np.hypot(people[:, 0] - pose[0], people[:, 1] - pose[1]) <= radius],
+                np.column_stack([still, np.zeros((len(still), 2))])]
+        return np.concatenate(rows).reshape(-1, 4), len(rows[0])
+
+    def _describe(self, pose, blockers, tracked):
+        if not len(blockers):
+            return ""
+        d = np.hypot(blockers[:, 0] - pose[0], blockers[:, 1] - pose[1])
+        i = int(np.argmin(d))
+        what = "a person" if i < tracked else "something the map does not have (a person?)"
+        return f"{what} at ({blockers[i, 0]:.2f}, {blockers[i, 1]:.2f}), {d[i]:.2f} m away"
+
+    def blocking(self, pose, goal, reason):
+        """Why people stand in the way after a failed plan (``reason`` None: a plan exists on the
+        maps alone, without what the sensors see) or control (the local planner kept its distance
+        from a person, or a person or an unmapped obstacle is within 1.2 m), or ''."""
+        blockers, tracked = self._blockers(pose, 1.2 if reason is not None else 3.0)
+        if reason == NO_VALID_TRAJECTORY_PEOPLE:
+            near = self._describe(pose, blockers, tracked)
+            return f"{near or 'a person'} is nearer than min_person_distance on every way on"
+        if not len(blockers):
+            return ""
+        near = self._describe(pose, blockers, tracked)
+        if reason is not None:
+            return f"{near}: {reason}"
+        costmap = self.node.planner_costmap
+        with costmap.lock:
+            free = costmap.layered.map_only()
+            result = self.node.global_planner.make_plan(free, pose, goal, start_clearance=costmap.inscribed_radius)
+        return f"{near} stands in the way (the map has a way)" if result.ok else ""
+
+    def clear(self, pose, poses):
+        """Whether nobody is close in front: no tracked person within min_person_distance + 0.1 m
+        and no leg-height return within min_person_distance of the robot, in the half-plane ahead
+        along the plan ``poses`` (where it goes next), so that waiting ends with room to go on."""
+        near = self.node.local_planner.params.min_person_distance
+        blockers, tracked = self._blockers(pose, near + 0.1)
+        if not len(blockers):
+            return True
+        poses = np.asarray(poses, dtype=float).reshape(-1, 3)
+        d_plan = np.hypot(poses[:, 0] - pose[0], poses[:, 1] - pose[1])
+        ahead = np.nonzero(d_plan >= 0.3)[0]
+        tx, ty = poses[ahead[0], :2] if len(ahead) else poses[-1, :2]
+        ux, uy = tx - pose[0], ty - pose[1]
+        rx, ry = blockers[:, 0] - pose[0], blockers[:, 1] - pose[1]
+        d = np.hypot(rx, ry)
+        reach = np.where(np.arange(len(blockers)) < tracked, near + 0.1, near)
+        in_front = rx * ux + ry * uy > 0.0
+        return not np.any((d < reach) & in_front)
+
+    def give_way(self, pose):
+        """A pose (x, y, yaw) out of the way of the people (and unmapped marks) within 2 m
+        (people_layer.give_way_cells on a navfn potential from the robot over the global costmap),
+        or None."""
+        costmap = self.node.planner_costmap
+        blockers, _ = self._blockers(pose, 2.0)
+        if not len(blockers):
+            return None
+        with costmap.lock:
+            grid = costmap.layered.costmap.copy()
+        cell = grid.world_to_map(pose[0], pose[1])
+        if cell is None:
+            return None
+        trav = translate_costs(grid.costs, self.node.global_planner.allow_unknown, cell)
+        potential = compute_potential(trav, cell)
+        potential = np.where(grid.costs < GIVE_WAY_MAX_COST, potential, np.inf)
+        target = give_way_cells(potential, grid, pose[:2], blockers, GIVE_WAY_KEEP_OFF, GIVE_WAY_MIN_DISTANCE)
+        if target is None:
+            rospy.loginfo(LOG + "no place to give way to the people from (%.2f, %.2f)", pose[0], pose[1])
+            return None
+        return target[0], target[1], math.atan2(target[1] - pose[1], target[0] - pose[0])
+
+    def plan_to(self, start, pose):
+        return self.node._plan(start, pose)
 
 
 class MoveBaseNode:
@@ -214,8 +328,15 @@ class MoveBaseNode:
         self.local_planner = LocalPlanner(self.planner_params, fp, self.controller_costmap.inscribed_radius,
                                           self.controller_costmap.circumscribed_radius)
         self.recoveries = self._load_recoveries()
+        people = None
+        if self.params.person_wait_timeout > 0.0:
+            if self.planner_costmap.layered.people is None:
+                rospy.logwarn(LOG + "person_wait_timeout is set but the global costmap has no people_topic: the "
+                              "robot cannot tell when people stand in its way, and does not wait for them")
+            else:
+                people = PeopleAdapter(self)
         self.core = MoveBaseCore(self.params, self._plan_for_core, ControllerAdapter(self),
-                                 self.recoveries, self._sensors_current)
+                                 self.recoveries, self._sensors_current, people)
         self.core_lock = threading.Lock()
         self.recoveries_run = 0  # since start
         self.goal_recoveries = 0  # in the current (or last) goal
@@ -225,6 +346,8 @@ class MoveBaseNode:
 
         self._velocity = (0.0, 0.0, 0.0)
         self._velocity_lock = threading.Lock()
+        self.recent_still = RecentPoints(1.5)
+        self._still_lock = threading.Lock()
         rospy.Subscriber("odom", Odometry, self._odom_cb, queue_size=1)
 
         self.planner_costmap.start()
@@ -279,6 +402,18 @@ class MoveBaseNode:
                                           min_in_place_rotational_vel=p.min_in_place_vel_theta))
         return out
 
+    def unmapped_near(self, pose, radius):
+        """(N, 2) [m] in the global frame: the leg-height returns the maps do not explain within
+        ``radius`` of ``pose``, seen now or in the last 1.5 s (LayeredCostmap.unmapped_marks)."""
+        costmap = self.planner_costmap
+        now = rospy.get_time()
+        with costmap.lock:
+            seen = costmap.layered.unmapped_marks(pose[0], pose[1], max(radius, 2.5))
+        with self._still_lock:
+            self.recent_still.add(now, seen)
+            pts = self.recent_still.get(now)
+        return pts[np.hypot(pts[:, 0] - pose[0], pts[:, 1] - pose[1]) <= radius]
+
     def _local_footprint_cost(self, points):
         local = self.controller_costmap
         with local.lock:
@@ -324,8 +459,10 @@ class MoveBaseNode:
             elif outcome:
                 summary = f"no goal (last {outcome})"
         else:
-            level = WARN if state == CLEARING else OK
+            level = WARN if state in (CLEARING, WAITING) else OK
             summary = f"{state} toward ({goal[0]:.2f}, {goal[1]:.2f}, {goal[2]:.2f} rad)"
+            if state == WAITING:
+                summary += f": {self.core.g.reasons.get(self.core.g.wait_trigger, '')}"
             if state == CLEARING and recovery is not None:
                 summary += f": recovery {recovery.name}"
         stat.summary(level, summary)
@@ -374,7 +511,8 @@ class MoveBaseNode:
     def _plan(self, start, goal, tolerance=None):
         costmap = self.planner_costmap
         with costmap.lock:
-            result = self.global_planner.make_plan(costmap.costmap, start, goal, tolerance)
+            result = self.global_planner.make_plan(costmap.costmap, start, goal, tolerance,
+                                                   start_clearance=costmap.inscribed_radius)
             if not result.ok:
                 result.permanent = goal_is_hopeless(costmap.layered, goal[0], goal[1])
         return result
@@ -507,6 +645,7 @@ class MoveBaseNode:
             return
         period = 1.0 / self.params.controller_frequency
         next_time = rospy.get_time()
+        last_text = ""
         while not rospy.is_shutdown():
             if self.server.is_preempt_requested():
                 if self.server.is_new_goal_available():
@@ -537,6 +676,9 @@ class MoveBaseNode:
             elif state_before != self.core.state and self.core.state is not None:
                 rospy.loginfo(LOG + "%s -> %s%s", state_before, self.core.state,
                               f": {result.text}" if result.text else "")
+            elif self.core.state == WAITING and result.text.split(":")[0] != last_text.split(":", maxsplit=1)[0]:
+                rospy.loginfo(LOG + "%s", result.text)  # waiting <-> giving way
+            last_text = result.text
             if result.outcome:
                 self._end(result.outcome, result.text)
                 return

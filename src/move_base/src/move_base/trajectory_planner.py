@@ -109,6 +109,10 @@ PARAMS = ParamTable(
           "while braking (ROS stops first)"),
     Param("turn_before_tolerance", bool, False, "Florence, with rotate_while_braking: brake and turn before "
           "xy_goal_tolerance when a simulation of it ends well inside the tolerance and reaches the goal sooner"),
+    Param("min_person_distance", float, 0.0, "Florence: no trajectory brings the robot's centre nearer than this "
+          "to a tracked person (walking on at their velocity), or nearer than this less 0.1 m to a leg-height "
+          "return the maps do not explain, than braking would; braking, turning on the spot and moving away "
+          "stay allowed (0: off, ROS)", unit="m", ge=0.0),
 )
 """TrajectoryPlannerROS's parameters (``~TrajectoryPlannerROS/``: ROS names and defaults, plus
 Florence's three, off by default, which is ROS's behaviour)."""
@@ -576,6 +580,9 @@ class Trajectory:
     points: np.ndarray
 
 
+PEOPLE_COST = -3.0  # a trajectory refused for min_person_distance (Florence; the escape does not override it)
+
+
 class TrajectoryPlanner:
     """base_local_planner::TrajectoryPlanner on a :class:`Costmap2D`.
 
@@ -595,6 +602,12 @@ class TrajectoryPlanner:
         self.local_goal = None  # (x, y) [m] of the local goal cell's centre
         self._plan_xy = np.empty((0, 2))
         self.last_trajectory = None  # the Trajectory chosen by the last find_best_command
+        self.people = np.zeros((0, 4))  # (P, 4) x, y [m], vx, vy [m/s] in the costmap frame (min_person_distance)
+        self.still_people = np.zeros((0, 2))  # (S, 2) x, y [m]: what may be people the tracker does not know
+        self.refused_for_people = 0  # trajectories the last scoring refused for min_person_distance alone
+        self._brake = None  # (x, y, yaw, vx, acc_lim_x) of the cycle: braking is never refused for people
+        self._cost_without_people = None
+        self.blocked_by_people = False  # the last cycle's best forward motion was refused for a person
         self.reset_oscillation_flags()
         self.escaping = False
         self.prev_x = self.prev_y = 0.0  # [m] where the last in-place move was chosen
@@ -753,12 +766,25 @@ class TrajectoryPlanner:
         if p.heading_scoring:
             cost = cost + 0.3 * head
         cost = np.where(status == 0, cost, status.astype(float))
+        self.refused_for_people = 0
+        self._cost_without_people = cost
+        if p.min_person_distance > 0.0 and (len(self.people) or len(self.still_people)):
+            from move_base.people_layer import approaches
+
+            steps = np.asarray(steps, np.int64)
+            index = np.arange(points.shape[1])[None, :]
+            times = np.where(index < steps[:, None], index * np.asarray(dt, float).reshape(-1, 1), np.inf)
+            near = approaches(points, times, self.people, p.min_person_distance, brake=self._brake,
+                              still=self.still_people)
+            self.refused_for_people = int(np.count_nonzero(near & (cost >= 0.0)))
+            cost = np.where(near & (cost >= 0.0), PEOPLE_COST, cost)
         return cost, n_valid
 
     def check_trajectory(self, costmap, x, y, yaw, vx, vy, vth, vx_samp, vy_samp, vth_samp):
         """True when the command (vx_samp, vy_samp, vth_samp) simulated from the current pose and
         velocity is legal (TrajectoryPlanner::checkTrajectory; needs :meth:`update_plan` first)."""
         pts, steps, dt = self.generate_trajectories(x, y, yaw, vx, vy, vth, [(vx_samp, vy_samp, vth_samp)])
+        self._brake = (float(x), float(y), float(yaw), float(vx), float(self.params.acc_lim_x))
         cost, _ = self.score_trajectories(costmap, pts, steps, dt)
         return bool(cost[0] >= 0.0)
 
@@ -776,10 +802,12 @@ class TrajectoryPlanner:
 
         Returns:
             (cmd (vx, vy, vth), cost, points (N, 3)): cost < 0 means no legal trajectory and a
-            zero command. An escape (backing up) returns cost 1.0 even when it collides, as ROS.
+            zero command. An escape (backing up) returns cost 1.0 even when it collides, as ROS, if
+            its last pose is clear (Florence: ROS backs into what is behind the robot too).
         """
         plan_xy = np.asarray(plan_xy, dtype=float).reshape(-1, 2)
         self.update_plan(costmap, plan_xy, x, y, yaw)
+        self._brake = (float(x), float(y), float(yaw), float(vx), float(self.params.acc_lim_x))
         if goal_xy is None and len(plan_xy):
             goal_xy = plan_xy[-1]
         final_goal_dist = math.hypot(goal_xy[0] - x, goal_xy[1] - y) if goal_xy is not None else math.inf
@@ -788,10 +816,20 @@ class TrajectoryPlanner:
         pts, steps, dt = self.generate_trajectories(x, y, yaw, vx, vy, vth, samples)
         costs, n_valid = self.score_trajectories(costmap, pts, steps, dt)
         best = self._select(costmap, samples, kinds, raw_vth, dvth, costs, pts, n_valid, x, y, yaw)
+        # a person in the way: the forward motion that would win without them is refused for them,
+        # and what is left is turning on the spot or backing up
+        self.blocked_by_people = False
+        if self.refused_for_people and kinds[best] not in (FORWARD, STRAFE_FORWARD):
+            forward = np.flatnonzero((kinds == FORWARD) | (kinds == STRAFE_FORWARD))
+            pre = self._cost_without_people[forward]
+            legal = forward[pre >= 0]
+            self.blocked_by_people = bool(len(legal)) and costs[legal[np.argmin(pre[pre >= 0])]] < 0
         traj = Trajectory(float(samples[best, 0]), float(samples[best, 1]), float(samples[best, 2]),
                           float(costs[best]), pts[best, : n_valid[best]].copy())
         if kinds[best] == ESCAPE:
-            traj.cost = self._escape_bookkeeping(traj.cost, x, y, yaw)
+            end = pts[best, max(int(steps[best]) - 1, 0)]
+            ends_free = footprint_cost(costmap, float(end[0]), float(end[1]), float(end[2]), self.footprint) >= 0
+            traj.cost = self._escape_bookkeeping(traj.cost, x, y, yaw, ends_free)
         self.last_trajectory = traj
         if traj.cost < 0:
             return (0.0, 0.0, 0.0), traj.cost, traj.points
@@ -908,8 +946,9 @@ class TrajectoryPlanner:
                 or abs(angles.diff(yaw, self.escape_theta)) > p.escape_reset_theta):
             self.escaping = False
 
-    def _escape_bookkeeping(self, cost, x, y, yaw):
-        """State updates when backing up; returns the escape's reported cost."""
+    def _escape_bookkeeping(self, cost, x, y, yaw, ends_free=True):
+        """State updates when backing up; returns the escape's reported cost. ``ends_free``: the
+        backing trajectory's last pose is legal."""
         if math.hypot(x - self.prev_x, y - self.prev_y) > self.params.oscillation_reset_dist:
             self.reset_oscillation_flags()
         if not self.escaping and cost > -2.0:
@@ -917,5 +956,6 @@ class TrajectoryPlanner:
             self.escaping = True
         self._maybe_end_escape(x, y, yaw)
         # Back up even when the footprint touches an obstacle (ROS: "even when the static map shows
-        # it as blocked").
-        return 1.0 if cost == -1.0 else cost
+        # it as blocked"), so a robot whose nose touches something can back off it; Florence: only
+        # when backing ends clear of obstacles (ROS backed the robot into a table's corner behind it)
+        return 1.0 if cost == -1.0 and ends_free else cost

@@ -15,14 +15,13 @@ ROS Publishers:
 
 
 
-import numpy as np
 import rospy
 import tf2_ros
-from sensor_msgs.msg import CameraInfo, Image, LaserScan, PointCloud2, PointField
+from sensor_msgs.msg import CameraInfo, Image, LaserScan, PointCloud2
 from std_msgs.msg import Header
 
 from florence_common.params import FRAME, Param, ParamTable
-from florence_common_ros.convert import depth_image_metres, to_matrix
+from florence_common_ros.convert import cloud_to_points, depth_image_metres, to_matrix
 from florence_common_ros.diagnostics import OK, WARN, Diagnostics
 from florence_common_ros.node import read_params, run
 from pointcloud_to_laserscan.projection import DepthProjector, ScanParams, points_to_ranges
@@ -49,25 +48,6 @@ PARAMS = ParamTable(
     Param("inf_epsilon", float, _D.inf_epsilon, "see use_inf", unit="m", ge=0),
 )
 SCAN_FIELDS = tuple(ScanParams.__dataclass_fields__)
-
-
-def cloud_to_points(msg):
-    """(N, 3) float32 x y z of a PointCloud2 (any point_step/row_step, either endianness)."""
-    fields = {f.name: f for f in msg.fields}
-    for name in "xyz":
-        f = fields.get(name)
-        if f is None or f.datatype != PointField.FLOAT32:
-            raise ValueError(f"cloud field {name!r} missing or not FLOAT32")
-    order = ">" if msg.is_bigendian else "<"
-    dtype = np.dtype({"names": list("xyz"), "formats": [order + "f4"] * 3,
-                      "offsets": [fields[n].offset for n in "xyz"], "itemsize": msg.point_step})
-    if msg.point_step < 12 or msg.row_step < msg.width * msg.point_step or \
-            len(msg.data) < msg.row_step * msg.height:
-        raise ValueError(f"cloud data too short or steps inconsistent ({len(msg.data)} bytes, "
-                         f"{msg.height}x{msg.width}, point_step {msg.point_step}, row_step {msg.row_step})")
-    rows = np.frombuffer(msg.data, dtype=np.uint8, count=msg.row_step * msg.height).reshape(msg.height, msg.row_step)
-    pts = rows[:, :msg.width * msg.point_step].copy().view(dtype).reshape(-1)
-    return np.stack([pts["x"], pts["y"], pts["z"]], axis=1).astype(np.float32)
 
 
 class PointCloudToLaserScanNode:

@@ -1,0 +1,308 @@
+"""People in the costmaps (ROS-free): social_navigation_layers' ProxemicLayer, with Florence's
+lethal core, and the geometry move_base needs to wait for a person or give way to one.
+
+The proxemic cost around a person at (px, py) walking at (vx, vy) is ProxemicLayer's Gaussian,
+
+    cost = amplitude * exp(-(a^2 / (2 var_a) + c^2 / (2 covariance)))
+
+with ``a`` the distance along the person's heading (the direction of their velocity) and ``c``
+across it; ``var_a`` is ``covariance * (1 + |v| * factor)`` in front of the person (a >= 0) and
+``covariance`` behind, so the cost stretches ahead of a walker. Cells where it is below
+``cutoff`` are left alone; elsewhere a cell takes the larger of its cost and this one (an
+unknown cell stays unknown). ROS's defaults: amplitude 77, covariance 0.25 m^2, cutoff 10,
+factor 5 s/m, keep_time 0.75 s.
+
+Florence's additions: ``lethal_radius`` [m] makes the disc round each person lethal, before the
+inflation, so that a plan keeps the robot's centre at least lethal_radius + the inscribed radius
+from them (0: none, as ROS); a person lapses ``keep_time`` after the tracker last saw them (the
+person is gone from the costmap once their track is gone; ROS keeps the last message's people
+until the next message). Positions are carried forward along the velocity to the update's time
+(at most keep_time).
+
+Units: metres, seconds, radians; positions in the costmap's frame.
+"""
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from florence_common.params import Param, ParamTable
+from move_base.costmap_2d import LETHAL_OBSTACLE, NO_INFORMATION
+
+CARRY_LIMIT = 0.5  # [s] how far along their velocity a person's position is carried
+
+PROXEMIC_PARAMS = ParamTable(
+    Param("amplitude", float, 77.0, "cost at a person's centre", ge=0.0, le=252.0),
+    Param("covariance", float, 0.25, "variance of the Gaussian across the heading and behind", unit="m^2", gt=0.0),
+    Param("cutoff", float, 10.0, "smallest cost written (the Gaussian's edge)", ge=0.0),
+    Param("factor", float, 5.0, "stretch of the variance ahead of a walker per m/s of speed", unit="s/m", ge=0.0),
+    Param("keep_time", float, 0.75, "a person lapses this long after the tracker last saw them", unit="s",
+          gt=0.0),
+    Param("lethal_radius", float, 0.0, "Florence: the disc of this radius round a person is lethal (0: none, as "
+          "ROS)", unit="m", ge=0.0),
+    Param("trail_time", float, 5.0, "Florence: the obstacle marks within trail_radius of where a tracked person "
+          "was in this time are theirs and freed before each update's marking (what a sensor sees there now is "
+          "marked again; 0: none)", unit="s", ge=0.0),
+    Param("trail_radius", float, 0.3, "Florence: see trail_time (a person's body about their tracked centre)",
+          unit="m", ge=0.0),
+)
+"""A costmap's proxemic layer (``~<costmap>/proxemic/``: ProxemicLayer's names and defaults plus
+Florence's lethal_radius)."""
+
+
+@dataclass
+class Person:
+    """One tracked person in the costmap's frame: position [m], velocity [m/s], last seen [s]."""
+
+    x: float
+    y: float
+    vx: float
+    vy: float
+    seen: float
+    id: int = -1
+
+
+class ProxemicLayer:
+    """The people's costs (see the module docstring); ``params``: :data:`PROXEMIC_PARAMS`' values."""
+
+    def __init__(self, amplitude=77.0, covariance=0.25, cutoff=10.0, factor=5.0, keep_time=0.75, lethal_radius=0.0,
+                 trail_time=5.0, trail_radius=0.3):
+        self.amplitude = float(amplitude)
+        self.covariance = float(covariance)
+        self.cutoff = float(cutoff)
+        self.factor = float(factor)
+        self.keep_time = float(keep_time)
+        self.lethal_radius = float(lethal_radius)
+        self.trail_time = float(trail_time)
+        self.trail_radius = float(trail_radius)
+        self._people = {}  # id -> (Person, stamp [s] of the message it came in)
+        self._stamp = None  # [s] the newest message's time
+        self._trail = []  # (t [s], x [m], y [m]) of every tracked person of the last trail_time
+
+    def set_people(self, people, stamp):
+        """The people of the newest tracker message (an iterable of :class:`Person`), ``stamp`` [s]
+        its time. People with a non-finite field are dropped; returns how many. A person the
+        message no longer holds is kept until keep_time after they were last seen (the tracker drops
+        a track its sensors lost, as the robot turns away from a person: the person is still there)."""
+        dropped = 0
+        stamp = float(stamp)
+        for p in people:
+            values = (p.x, p.y, p.vx, p.vy, p.seen)
+            if all(math.isfinite(v) for v in values):
+                self._people[p.id] = (p, stamp)
+                self._trail.append((p.seen, p.x, p.y))
+            else:
+                dropped += 1
+        self._stamp = stamp
+        self._people = {k: v for k, v in self._people.items() if stamp - v[0].seen <= self.keep_time}
+        return dropped
+
+    def clear(self):
+        self._people = {}
+        self._stamp = None
+        self._trail = []
+
+    def trail(self, now=None):
+        """(N, 3) x, y [m], trail_radius: where tracked people were within trail_time before
+        ``now`` [s] (None: the last message's time), thinned to one disc per trail_radius / 2 of
+        walking; empty when trail_time is 0."""
+        if self.trail_time <= 0.0 or not self._trail:
+            return np.zeros((0, 3))
+        now = self._stamp if now is None else now
+        self._trail = [row for row in self._trail if now - row[0] <= self.trail_time]
+        if not self._trail:
+            return np.zeros((0, 3))
+        xy = np.array([row[1:] for row in self._trail])
+        cells = np.floor(xy / max(self.trail_radius / 2.0, 1e-3)).astype(np.int64)
+        _, first = np.unique(cells, axis=0, return_index=True)
+        xy = xy[np.sort(first)]
+        return np.column_stack([xy, np.full(len(xy), self.trail_radius)])
+
+    def current(self, now=None):
+        """The people at ``now`` [s] (None: as last reported) not lapsed (seen within keep_time),
+        each moved along its velocity from the time of the message that held it to ``now`` (at
+        most CARRY_LIMIT: a lost track's velocity is not a forecast): (N, 4) array of (x, y, vx,
+        vy) and their ids."""
+        rows, ids = [], []
+        for pid, (p, stamp) in self._people.items():
+            if now is not None and now - p.seen > self.keep_time:
+                continue
+            ahead = 0.0 if now is None else min(max(now - stamp, 0.0), CARRY_LIMIT)
+            rows.append((p.x + p.vx * ahead, p.y + p.vy * ahead, p.vx, p.vy))
+            ids.append(pid)
+        return np.array(rows, dtype=float).reshape(-1, 4), ids
+
+    def radius(self, speed=0.0):
+        """Reach [m] of the cost round a person walking at ``speed`` [m/s] (ProxemicLayer's
+        get_radius of the stretched variance), at least lethal_radius."""
+        if self.cutoff >= self.amplitude or self.amplitude <= 0.0:
+            return self.lethal_radius
+        var = self.covariance * (1.0 + speed * self.factor)
+        return max(self.lethal_radius, math.sqrt(-2.0 * var * math.log(self.cutoff / self.amplitude)))
+
+    def update_costs(self, master, now=None, robot=None):
+        """Write the people's costs into ``master`` (a Costmap2D) for time ``now`` [s]. ``robot`` =
+        (x, y, keep_clear) [m]: no lethal cell within keep_clear of the robot's centre, so that a
+        person standing close does not wall the robot in (a plan from its cell could not start)."""
+        people, _ = self.current(now)
+        for px, py, vx, vy in people:
+            self._write_person(master, px, py, vx, vy, robot)
+
+    def _write_person(self, master, px, py, vx, vy, robot=None):
+        speed = math.hypot(vx, vy)
+        reach = self.radius(speed)
+        res = master.resolution
+        lo_x = max(math.floor((px - reach - master.origin_x) / res), 0)
+        hi_x = min(math.floor((px + reach - master.origin_x) / res), master.size_x - 1)
+        lo_y = max(math.floor((py - reach - master.origin_y) / res), 0)
+        hi_y = min(math.floor((py + reach - master.origin_y) / res), master.size_y - 1)
+        if lo_x > hi_x or lo_y > hi_y:
+            return
+        cx = master.origin_x + (np.arange(lo_x, hi_x + 1) + 0.5) * res
+        cy = master.origin_y + (np.arange(lo_y, hi_y + 1) + 0.5) * res
+        dx, dy = np.meshgrid(cx - px, cy - py)
+        heading = math.atan2(vy, vx)
+        c, s = math.cos(heading), math.sin(heading)
+        along = c * dx + s * dy
+        across = -s * dx + c * dy
+        var_along = np.where(along >= 0.0, self.covariance * (1.0 + speed * self.factor), self.covariance)
+        cost = self.amplitude * np.exp(-(along * along / (2.0 * var_along) + across * across / (2.0 * self.covariance)))
+        window = master.costs[lo_y:hi_y + 1, lo_x:hi_x + 1]
+        known = window != NO_INFORMATION
+        write = known & (cost >= self.cutoff)
+        window[write] = np.maximum(window[write], cost[write].astype(np.uint8))
+        if self.lethal_radius > 0.0:
+            lethal = np.hypot(dx, dy) <= self.lethal_radius
+            if robot is not None:
+                rx, ry, keep_clear = robot
+                lethal &= np.hypot(dx + px - rx, dy + py - ry) > keep_clear
+            window[lethal] = LETHAL_OBSTACLE
+
+
+# --- the local planner's rule and move_base's waiting -------------------------------------------------
+# Giving way (move_base's WAITING state): the place the robot drives to is at least
+# GIVE_WAY_MIN_DISTANCE from every person and GIVE_WAY_KEEP_OFF from the line each walks along (a
+# person passing a robot keeps about 0.5 m between the centres, and the tracker's positions are off
+# by up to about 0.1 m), on a costmap cell below GIVE_WAY_MAX_COST (not pressed against a wall).
+GIVE_WAY_MIN_DISTANCE = 1.0  # [m]
+GIVE_WAY_KEEP_OFF = 0.75  # [m]
+GIVE_WAY_MAX_COST = 200
+STILL_MARGIN = 0.1  # [m] a leg's distance from a person's centre
+
+
+def braking_positions(times, start, speed, acc):
+    """Positions (x, y) [m] at ``times`` [s] (any shape) of a robot braking from ``speed`` [m/s]
+    at ``acc`` [m/s^2] straight along its heading from ``start`` = (x, y, yaw): what the robot
+    does at the least when it stops commanding motion. Returns two arrays of ``times``' shape."""
+    t = np.asarray(times, dtype=float)
+    v = abs(float(speed))
+    a = max(float(acc), 1e-9)
+    t_stop = v / a
+    tc = np.minimum(t, t_stop)
+    s = np.sign(speed) * (v * tc - 0.5 * a * tc * tc)
+    return start[0] + s * math.cos(start[2]), start[1] + s * math.sin(start[2])
+
+
+def approaches(points, times, people, min_distance, tolerance=0.01, brake=None, still=None):
+    """Which trajectories bring the robot's centre nearer than ``min_distance`` [m] to a person
+    than braking would: trajectory k is refused when at some step i its position is within
+    ``min_distance`` of where a person will be at ``times[k, i]`` [s] (walking on at their
+    velocity) and nearer to it, by more than ``tolerance`` [m], than a robot braking to a stop
+    from ``brake`` = (x, y, yaw, speed [m/s], deceleration [m/s^2]) would be then (None: standing
+    at the trajectory's first pose). Braking, turning on the spot and moving away from a person
+    are never refused, so a robot a person walked up to can always leave.
+
+    ``points`` (K, T, >= 2) [m], ``times`` (K, T) [s] (np.inf past a trajectory's last step),
+    ``people`` (P, 4) (x, y, vx, vy); ``still`` (S, 2) [m] points that may be people standing (the
+    legs of a person the tracker does not know), kept at ``min_distance`` - STILL_MARGIN (a leg is
+    about 0.1 m from the person's centre, and nearest when the robot comes from the side, where
+    the centre is then farther still). Returns a bool array (K,)."""
+    points = np.asarray(points, dtype=float)
+    out = np.zeros(points.shape[0], dtype=bool)
+    people = np.asarray(people, dtype=float).reshape(-1, 4)
+    still = np.zeros((0, 2)) if still is None else np.asarray(still, dtype=float).reshape(-1, 2)
+    if (len(people) == 0 and len(still) == 0) or min_distance <= 0.0 or points.size == 0:
+        return out
+    t = np.asarray(times, dtype=float)
+    valid = np.isfinite(t)
+    t = np.where(valid, t, 0.0)
+    if brake is None:
+        bx, by = points[:, :1, 0], points[:, :1, 1]
+    else:
+        bx, by = braking_positions(t, brake[:3], brake[3], brake[4])
+    for px, py, vx, vy in people:
+        qx, qy = px + vx * t, py + vy * t  # (K, T) the person at each step's time
+        d = np.hypot(points[..., 0] - qx, points[..., 1] - qy)
+        d0 = np.hypot(bx - qx, by - qy)
+        out |= np.any(valid & (d < min_distance) & (d < d0 - tolerance), axis=1)
+    if len(still):
+        from scipy.spatial import cKDTree
+
+        tree = cKDTree(still)
+        shape = points.shape[:2]
+        near = min_distance - STILL_MARGIN
+        d = tree.query(points[..., :2].reshape(-1, 2), distance_upper_bound=near)[0].reshape(shape)
+        base = np.column_stack([np.broadcast_to(bx, shape).ravel(), np.broadcast_to(by, shape).ravel()])
+        d0 = tree.query(base)[0].reshape(shape)
+        out |= np.any(valid & (d < near) & (d < d0 - tolerance), axis=1)
+    return out
+
+
+class RecentPoints:
+    """Points [m] seen within the last ``keep`` [s]: the leg-height returns of people the tracker
+    does not know stay remembered for a moment after the robot turned away from them."""
+
+    def __init__(self, keep=1.5):
+        self.keep = float(keep)
+        self._rows = []  # (t [s], (N, 2) points)
+
+    def add(self, now, points):
+        self._rows = [(t, p) for t, p in self._rows if 0.0 <= now - t <= self.keep]
+        points = np.asarray(points, dtype=float).reshape(-1, 2)
+        if len(points):
+            self._rows.append((float(now), points))
+
+    def get(self, now):
+        """The points of the last ``keep`` seconds before ``now`` [s], (N, 2)."""
+        rows = [p for t, p in self._rows if 0.0 <= now - t <= self.keep]
+        return np.concatenate(rows) if rows else np.zeros((0, 2))
+
+
+def give_way_cells(potential, costmap, robot_xy, people, keep_off, min_distance):
+    """Where the robot could stand to let people by: the reachable cell (finite ``potential``, a
+    navfn potential from the robot over ``costmap``) of least potential at least
+    ``min_distance`` [m] from every person and at least ``keep_off`` [m] from every person's way,
+    the line through the person toward the robot (a person who stands in the robot's way waits
+    for it to leave the line they walk along), on the robot's side of each person. Returns the
+    cell's centre (x, y) [m] or None.
+
+    ``people`` (P, 4) (x, y, vx, vy); a walking person's way is their heading instead."""
+    people = np.asarray(people, dtype=float).reshape(-1, 4)
+    ok = np.isfinite(potential)
+    if not ok.any():
+        return None
+    rows, cols = np.nonzero(ok)
+    wx, wy = costmap.map_to_world(cols, rows)
+    wx, wy = np.atleast_1d(wx), np.atleast_1d(wy)
+    good = np.ones(len(wx), dtype=bool)
+    for px, py, vx, vy in people:
+        speed = math.hypot(vx, vy)
+        if speed > 0.2:
+            ux, uy = vx / speed, vy / speed
+        else:
+            dx, dy = robot_xy[0] - px, robot_xy[1] - py
+            norm = math.hypot(dx, dy)
+            if norm < 1e-6:
+                continue
+            ux, uy = dx / norm, dy / norm
+        rx, ry = wx - px, wy - py
+        along = rx * ux + ry * uy
+        across = np.abs(-rx * uy + ry * ux)
+        good &= np.hypot(rx, ry) >= min_distance
+        # off the person's way: beside it, or behind the person (not reachable past them anyway)
+        good &= (across >= keep_off) | (along < -min_distance)
+    if not good.any():
+        return None
+    best = int(np.argmin(np.where(good, potential[rows, cols], np.inf)))
+    return float(wx[best]), float(wy[best])

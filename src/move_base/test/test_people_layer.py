@@ -1,0 +1,262 @@
+"""People in the costmaps (move_base.people_layer): the proxemic cost against ProxemicLayer's
+formula, its stretch ahead of a walker, the lapse of a lost track, bad input, the lethal core and
+the robot's own cell, the trail of a walker; the local planner's rule (approaches); where to give
+way (give_way_cells); and the keep-out layer and LayeredCostmap's views without the sensors."""
+
+import math
+
+import numpy as np
+import pytest
+from move_base.costmap_2d import FREE_SPACE, INSCRIBED_INFLATED_OBSTACLE, LETHAL_OBSTACLE, NO_INFORMATION, Costmap2D
+from move_base.layers import KeepoutLayer, LayeredCostmap, ObservationSource
+from move_base.navfn import compute_potential, translate_costs
+from move_base.people_layer import (
+    Person,
+    ProxemicLayer,
+    RecentPoints,
+    approaches,
+    braking_positions,
+    give_way_cells,
+)
+
+pytestmark = pytest.mark.unit
+
+
+def grid(size=100, res=0.05, origin=-2.5):
+    return Costmap2D(size, size, res, origin, origin)
+
+
+def ros_gaussian(x, y, x0, y0, amplitude, varx, vary, skew):
+    """social_navigation_layers' gaussian(), for comparison."""
+    dx, dy = x - x0, y - y0
+    h = math.hypot(dx, dy)
+    angle = math.atan2(dy, dx)
+    mx, my = math.cos(angle - skew) * h, math.sin(angle - skew) * h
+    return amplitude * math.exp(-(mx * mx / (2 * varx) + my * my / (2 * vary)))
+
+
+def test_standing_person_is_a_round_gaussian_as_ros_computes_it():
+    layer = ProxemicLayer()
+    layer.set_people([Person(0.0, 0.0, 0.0, 0.0, seen=10.0)], stamp=10.0)
+    c = grid()
+    layer.update_costs(c, now=10.0)
+    for x, y in [(0.025, 0.025), (0.325, 0.025), (-0.325, 0.225), (0.525, -0.525)]:
+        want = ros_gaussian(x, y, 0.0, 0.0, 77.0, 0.25, 0.25, 0.0)
+        got = c.cost_at(x, y)
+        assert got == (int(want) if want >= 10.0 else 0), (x, y)
+    assert c.cost_at(0.025, 0.025) == 76
+    assert c.cost_at(1.5, 0.0) == FREE_SPACE  # beyond the cutoff
+
+
+def test_a_walker_stretches_the_cost_ahead_only():
+    layer = ProxemicLayer()
+    layer.set_people([Person(0.0, 0.0, 0.5, 0.0, seen=0.0)], stamp=0.0)  # walking +x at 0.5 m/s
+    c = grid()
+    layer.update_costs(c, now=0.0)
+    ahead, behind = c.cost_at(1.025, 0.025), c.cost_at(-0.975, 0.025)
+    assert ahead == int(ros_gaussian(1.025, 0.025, 0.0, 0.0, 77.0, 0.25 * (1 + 0.5 * 5.0), 0.25, 0.0))
+    assert behind == int(ros_gaussian(-0.975, 0.025, 0.0, 0.0, 77.0, 0.25, 0.25, 0.0))
+    assert ahead > 3 * behind
+    assert layer.radius(0.5) > layer.radius(0.0)
+
+
+def test_the_person_is_carried_along_and_lapses_when_the_track_is_gone():
+    layer = ProxemicLayer(keep_time=0.75)
+    layer.set_people([Person(0.0, 0.0, 1.0, 0.0, seen=5.0, id=1)], stamp=5.0)
+    people, ids = layer.current(5.4)
+    assert people[0, :2] == pytest.approx([0.4, 0.0]) and ids == [1]  # walked on 0.4 s
+    assert layer.current(5.7)[0][0, 0] == pytest.approx(0.5)  # carried 0.5 s at most
+    assert len(layer.current(5.76)[0]) == 0  # not seen for more than keep_time
+    c = grid()
+    layer.update_costs(c, now=6.0)
+    assert int(c.costs.max()) == 0
+    # the tracker's next messages no longer hold the person (its sensors lost them): they stay
+    # until keep_time after they were last seen
+    layer.set_people([Person(0.0, 0.0, 0.0, 0.0, seen=7.0, id=2)], stamp=7.0)
+    layer.set_people([], stamp=7.3)
+    assert layer.current(7.5)[1] == [2]
+    layer.set_people([], stamp=7.8)
+    assert layer.current(7.8)[1] == []
+    c = grid()
+    layer.update_costs(c, now=7.8)
+    assert int(c.costs.max()) == 0
+
+
+def test_recent_points_are_remembered_for_a_moment():
+    mem = RecentPoints(keep=1.5)
+    mem.add(10.0, [[1.0, 2.0]])
+    mem.add(10.5, np.zeros((0, 2)))
+    mem.add(11.0, [[3.0, 4.0], [5.0, 6.0]])
+    assert len(mem.get(11.0)) == 3
+    assert mem.get(11.6).tolist() == [[3.0, 4.0], [5.0, 6.0]]
+    assert len(mem.get(13.0)) == 0
+
+
+def test_nan_people_are_left_out():
+    layer = ProxemicLayer()
+    dropped = layer.set_people([Person(math.nan, 0.0, 0.0, 0.0, 1.0), Person(1.0, 1.0, math.inf, 0.0, 1.0),
+                                Person(0.0, 0.0, 0.0, 0.0, 1.0)], stamp=1.0)
+    assert dropped == 2
+    assert len(layer.current(1.0)[0]) == 1
+
+
+def test_unknown_cells_stay_unknown_and_old_costs_are_kept():
+    layer = ProxemicLayer()
+    layer.set_people([Person(0.0, 0.0, 0.0, 0.0, 0.0)], stamp=0.0)
+    c = grid()
+    c.costs[50, 50] = NO_INFORMATION
+    c.costs[50, 52] = 200
+    layer.update_costs(c, now=0.0)
+    assert c.costs[50, 50] == NO_INFORMATION and c.costs[50, 52] == 200
+
+
+def test_lethal_core_keeps_clear_of_the_robot():
+    layer = ProxemicLayer(lethal_radius=0.3)
+    layer.set_people([Person(0.0, 0.0, 0.0, 0.0, 0.0)], stamp=0.0)
+    c = grid()
+    layer.update_costs(c, now=0.0, robot=(0.45, 0.0, 0.25))
+    assert c.cost_at(0.025, 0.025) == LETHAL_OBSTACLE
+    assert c.cost_at(-0.275, 0.025) == LETHAL_OBSTACLE
+    assert c.cost_at(0.275, 0.025) != LETHAL_OBSTACLE  # within 0.25 m of the robot's centre
+    assert c.cost_at(0.375, 0.025) < LETHAL_OBSTACLE
+
+
+def test_trail_of_a_walker():
+    layer = ProxemicLayer(trail_time=2.0, trail_radius=0.3)
+    for k in range(30):  # walking +x at 0.5 m/s, 10 messages a second
+        t = 0.1 * k
+        layer.set_people([Person(0.05 * k, 0.0, 0.5, 0.0, seen=t)], stamp=t)
+    trail = layer.trail(2.9)
+    assert trail[:, 2] == pytest.approx(0.3)
+    assert trail[:, 0].min() == pytest.approx(0.45, abs=0.06) and trail[:, 0].max() == pytest.approx(1.45, abs=0.11)
+    assert len(trail) < 10  # thinned
+    assert len(ProxemicLayer(trail_time=0.0).trail(0.0)) == 0
+
+
+# --- the local planner's rule --------------------------------------------------------------------
+def straight(v, heading=0.0, steps=20, dt=0.1, x0=0.0):
+    t = np.arange(steps) * dt
+    return np.stack([x0 + v * t * math.cos(heading), v * t * math.sin(heading), np.full(steps, heading)], axis=1), t
+
+
+def test_approaching_a_person_is_refused_moving_away_and_turning_are_not():
+    person = np.array([[1.0, 0.0, 0.0, 0.0]])
+    toward, t = straight(0.5)
+    away, _ = straight(-0.3)
+    turn = np.column_stack([np.zeros(20), np.zeros(20), np.linspace(0, 1, 20)])
+    past, _ = straight(0.5, heading=math.pi / 2)  # sideways: never nearer than 1 m
+    points = np.stack([toward, away, turn, past])
+    times = np.tile(t, (4, 1))
+    refused = approaches(points, times, person, 0.6)
+    assert refused.tolist() == [True, False, False, False]
+    # a person who walked up to 0.45 m: the robot may still back away or turn, not come nearer
+    close = np.array([[0.45, 0.0, 0.0, 0.0]])
+    assert approaches(points, times, close, 0.6).tolist() == [True, False, False, False]
+
+
+def test_a_walker_is_judged_where_they_will_be():
+    walker = np.array([[1.0, 1.0, 0.0, -0.5]])  # crossing the robot's way 1 m ahead in 2 s
+    toward, t = straight(0.5, steps=30)
+    assert approaches(toward[None], t[None], walker, 0.6).tolist() == [True]
+    assert approaches(toward[None], t[None], np.array([[1.0, 1.0, 0.0, 0.0]]), 0.6).tolist() == [False]
+
+
+def test_braking_is_never_refused():
+    person = np.array([[0.9, 0.0, 0.0, 0.0]])
+    t = np.arange(20) * 0.1
+    bx, by = braking_positions(t, (0.0, 0.0, 0.0), 0.5, 0.5)  # stops after 0.25 m
+    braking = np.column_stack([bx, by, np.zeros(20)])
+    assert bx[-1] == pytest.approx(0.25)
+    faster = np.column_stack([np.minimum(bx * 1.5, 0.45), by, np.zeros(20)])
+    points = np.stack([braking, faster])
+    brake = (0.0, 0.0, 0.0, 0.5, 0.5)
+    assert approaches(points, np.tile(t, (2, 1)), person, 0.7, brake=brake).tolist() == [False, True]
+    # against standing still instead (brake None) the braking path itself would be refused
+    assert approaches(points, np.tile(t, (2, 1)), person, 0.7).tolist() == [True, True]
+
+
+def test_still_points_count_as_people():
+    toward, t = straight(0.5)
+    legs = np.array([[1.0, 0.1], [1.0, -0.1]])
+    assert approaches(toward[None], t[None], np.zeros((0, 4)), 0.6, still=legs).tolist() == [True]
+    short, t_short = straight(0.5, steps=9)  # to 0.4 m: 0.6 m from the legs, more than 0.6 - 0.1
+    assert approaches(short[None], t_short[None], np.zeros((0, 4)), 0.6, still=legs).tolist() == [False]
+    assert approaches(toward[None], t[None], np.zeros((0, 4)), 0.6, still=legs + 3.0).tolist() == [False]
+
+
+# --- giving way ----------------------------------------------------------------------------------
+def corridor_with_a_door():
+    """A corridor along x (y 0..1.2 free) with a door going south at x 1.0..1.9 into a room."""
+    c = Costmap2D(120, 80, 0.05, -1.0, -2.0)
+    c.costs[...] = LETHAL_OBSTACLE
+    c.costs[40:64, :] = FREE_SPACE  # corridor y 0.0 .. 1.2
+    c.costs[0:40, 40:58] = FREE_SPACE  # door and room x 1.0 .. 1.9, south of the corridor
+    c.costs[0:2, :] = LETHAL_OBSTACLE
+    return c
+
+
+def test_give_way_leaves_the_corridor_through_the_door_behind():
+    c = corridor_with_a_door()
+    robot = (2.6, 0.6)  # east of the door
+    person = np.array([[3.2, 0.6, 0.0, 0.0]])  # standing in the corridor east of the robot, waiting
+    c.costs[40:64, 82:86] = LETHAL_OBSTACLE  # the person's lethal core blocks the corridor
+    cell = c.world_to_map(*robot)
+    potential = compute_potential(translate_costs(c.costs, True, cell), cell)
+    target = give_way_cells(potential, c, robot, person, keep_off=0.75, min_distance=1.0)
+    assert target is not None
+    x, y = target
+    assert 1.0 <= x <= 1.9 and y <= 0.6 - 0.75 + 1e-9  # in the door, off the corridor's line
+    # nowhere to go: a corridor without a door
+    c.costs[0:40, :] = LETHAL_OBSTACLE
+    potential = compute_potential(translate_costs(c.costs, True, cell), cell)
+    assert give_way_cells(potential, c, robot, person, keep_off=0.75, min_distance=1.0) is None
+
+
+# --- keep-out ------------------------------------------------------------------------------------
+def test_keepout_marks_lethal_before_inflation_and_changes_nothing_else():
+    lay = LayeredCostmap(40, 40, 0.05, 0.0, 0.0, static_map=True, inflation_radius=0.3, keepout=True)
+    static = np.zeros((40, 40), dtype=np.int8)
+    lay.set_static_map(static.ravel(), 40, 40, 0.05, 0.0, 0.0)
+    keep = np.full((40, 40), -1, dtype=np.int8)  # unknown: no say
+    keep[20, 20] = 100
+    keep[5, 5] = 0
+    assert lay.set_keepout_map(keep.ravel(), 40, 40, 0.05, 0.0, 0.0) is True
+    lay.update(0.0, 0.0)
+    assert lay.costmap.costs[20, 20] == LETHAL_OBSTACLE
+    assert lay.costmap.costs[20, 22] == INSCRIBED_INFLATED_OBSTACLE or lay.costmap.costs[20, 22] > 100
+    assert lay.costmap.costs[5, 5] == FREE_SPACE and lay.costmap.costs[0, 0] == FREE_SPACE
+
+
+def test_keepout_of_another_resolution_is_placed_by_its_own_origin():
+    lay = LayeredCostmap(40, 40, 0.05, 0.0, 0.0, static_map=True, inflation_radius=0.0, keepout=True)
+    lay.set_static_map(np.zeros(1600, dtype=np.int8), 40, 40, 0.05, 0.0, 0.0)
+    keep = np.zeros((10, 10), dtype=np.int8)
+    keep[5, 5] = 100  # x 1.0..1.2, y 1.0..1.2 at 0.2 m cells
+    assert lay.set_keepout_map(keep.ravel(), 10, 10, 0.2, 0.0, 0.0) is False
+    lay.update(0.0, 0.0)
+    assert lay.costmap.cost_at(1.1, 1.1) == LETHAL_OBSTACLE
+    assert lay.costmap.cost_at(1.25, 1.1) == FREE_SPACE
+    assert int(np.count_nonzero(lay.costmap.costs == LETHAL_OBSTACLE)) == 16  # 4 x 4 cells of 5 cm
+    assert KeepoutLayer().has_map is False
+
+
+def test_map_only_and_unmapped_marks():
+    src = ObservationSource("scan", clearing=True)
+    lay = LayeredCostmap(40, 40, 0.05, 0.0, 0.0, static_map=True, sources=[src], inflation_radius=0.2, keepout=True)
+    static = np.zeros((40, 40), dtype=np.int8)
+    static[:, 30] = 100  # a wall at x 1.5
+    lay.set_static_map(static.ravel(), 40, 40, 0.05, 0.0, 0.0)
+    lay.set_keepout_map(np.zeros(1600, dtype=np.int8), 40, 40, 0.05, 0.0, 0.0)
+    # the laser sees the wall (a little off, as the localization is) and a person's two legs
+    wall = np.column_stack([np.full(10, 1.53), np.linspace(0.2, 1.8, 10), np.full(10, 0.165)])
+    legs = np.array([[0.8, 0.9, 0.165], [0.8, 1.1, 0.165]])
+    lay.obstacles.add_observation("scan", (0.2, 1.0, 0.165), np.vstack([wall, legs]), stamp=0.0)
+    lay.update(0.2, 1.0)
+    marks = lay.unmapped_marks(0.2, 1.0, 2.0)
+    assert len(marks) == 2 and np.allclose(np.sort(marks[:, 1]), [0.925, 1.125])
+    # the person walked on: the laser sees only the wall now, the legs' old marks do not count
+    lay.obstacles.add_observation("scan", (0.2, 1.0, 0.165), wall, stamp=0.1)
+    assert len(lay.unmapped_marks(0.2, 1.0, 2.0)) == 0
+    assert lay.costmap.cost_at(0.82, 0.92) == LETHAL_OBSTACLE
+    only = lay.map_only()
+    assert only.cost_at(0.82, 0.92) == FREE_SPACE and only.cost_at(1.52, 1.0) == LETHAL_OBSTACLE
