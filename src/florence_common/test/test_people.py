@@ -5,7 +5,7 @@ import math
 
 import pytest
 
-from florence_common.people import AttendedPerson, nearest
+from florence_common.people import AttendedPerson, acquire, nearest
 
 pytestmark = pytest.mark.unit
 
@@ -50,3 +50,13 @@ def test_nan_rows_are_skipped():
     p = AttendedPerson(1, (0.0, 0.0))
     assert not p.update([1], [(math.nan, 0.0)], [(0, 0)], 0.1)
     assert p.update([1], [(0.1, 0.0)], [(math.nan, 0.0)], 0.2) and p.velocity == (0.0, 0.0)
+
+
+def test_acquire_says_why_not():
+    ids, xy, vel = [4, 9], [(1.0, 0.0), (2.0, 2.0)], [(0.1, 0.0), (0.0, 0.0)]
+    person, why = acquire(ids, xy, vel, 5.0, (1.1, 0.1), 0.5)
+    assert why is None and person.pid == 4 and person.velocity == (0.1, 0.0) and person.seen_at == 5.0
+    assert person.others == {9}, "the others tracked at goal time are somebody else"
+    _, why = acquire(ids, xy, vel, 5.0, (5.0, 0.0), 0.5)
+    assert "no tracked person within 0.50 m of (5.00, 0.00)" in why and "3.61 m" in why
+    assert acquire([], [], [], 0.0, (0.0, 0.0), 1.0) == (None, "nobody is tracked")

@@ -30,6 +30,23 @@ def nearest(points, target, radius):
     return (i if d[i] <= radius else None), float(d[i])
 
 
+def acquire(ids, xy, velocities, t, point, radius, **kwargs):
+    """(AttendedPerson, None) for the tracked person nearest to ``point`` (x, y) within ``radius``
+    [m], or (None, why not). ``kwargs`` go to AttendedPerson."""
+    ids = list(ids)
+    if not ids:
+        return None, "nobody is tracked"
+    k, gap = nearest(xy, point, radius)
+    if k is None:
+        return None, (f"no tracked person within {radius:.2f} m of ({point[0]:.2f}, {point[1]:.2f}): the nearest of "
+                      f"{len(ids)} is {gap:.2f} m from it")
+    v = np.asarray(velocities, dtype=float).reshape(-1, 2)[k]
+    person = AttendedPerson(int(ids[k]), tuple(np.asarray(xy, dtype=float)[k]),
+                            tuple(v) if np.all(np.isfinite(v)) else (0.0, 0.0), t, **kwargs)
+    person.others.update(int(i) for i in ids if int(i) != person.pid)
+    return person, None
+
+
 @dataclass
 class AttendedPerson:
     """One tracked person, kept by persistent id through the tracker's reports.

@@ -1,0 +1,289 @@
+"""approach_me_node: the ApproachMe enabler (seed 4.3, Table 16), an actionlib server on
+florence_common_ros.behaviour.Behaviour. Its geometry is approach_me.geometry's (the README has a
+figure); phase 1 drives to the position, phase 2 turns to the heading (approach_me.control).
+
+ROS Parameters: PARAMS below, and the gains of approach_me.control.GAINS (~k_linear ..., also served
+by dynamic_reconfigure: cfg/ApproachMe.cfg); both tables rendered in the README. ~sources: the
+obstacle sensors of collision_monitor (config/sources.yaml), which say whether the pose asked for
+is free.
+
+Action server approach_me (approach_me/ApproachMe.action): (x, y) in ~base_frame picks the tracked
+person nearest to it (none within ~acquire_radius: ABORTED at once); zero desired_distance,
+max_lin_speed, max_ang_speed take ~default_*; feedback (x, y) of the person in ~base_frame every
+control cycle; result (x, y) when it ends. SUCCEEDED within ~xy_tolerance and ~yaw_tolerance;
+ABORTED with the reason when the person is lost (~lost_timeout), moves away (~max_person_shift),
+the pose is inside an obstacle, or the robot makes no progress (~stuck_timeout: the collision
+monitor stopped it). Cancel or a new goal: a zero command at once, PREEMPTED.
+
+ROS Subscribers:
+    tracked_users (user_tracker_ni/TrackedUsers): people with persistent ids and positions.
+    <topic of each source> (sensor_msgs/LaserScan): obstacles (/scan, /kinect_scan).
+
+ROS Publishers:
+    cmd_vel (geometry_msgs/Twist): while a goal runs (the launch files remap it to
+        cmd_vel_mux/input/approach_me); one zero command when it ends.
+    ~state (std_msgs/String): idle, or the phase and what is left.
+    ~goal_pose (geometry_msgs/PoseStamped): the pose the robot aims at (rviz).
+    /diagnostics: the goal, the person, the tracker's input.
+"""
+
+import math
+import threading
+
+import numpy as np
+import rospy
+import tf2_ros
+from collision_monitor.obstacles import parse_sources
+from collision_monitor.sources import ScanSources
+from geometry_msgs.msg import PoseStamped, Twist
+from std_msgs.msg import String
+
+from approach_me.cfg import ApproachMeConfig
+from approach_me.control import DONE, GAINS, Approacher, Request
+from approach_me.msg import ApproachMeAction, ApproachMeFeedback, ApproachMeResult
+from florence_common import pose as pose2d
+from florence_common.params import FRAME, Param, ParamTable
+from florence_common.people import acquire
+from florence_common_ros.behaviour import Behaviour, aborted, succeeded
+from florence_common_ros.convert import pose_stamped
+from florence_common_ros.diagnostics import OK, WARN, Diagnostics
+from florence_common_ros.node import read_params, run
+from florence_common_ros.people import TrackedPeople
+from florence_common_ros.reconfigure import Reconfigure
+from user_tracker_ni.msg import TrackedUsers
+
+LOG = "approach_me: "
+PARAMS = ParamTable(
+    Param("rate", float, 10.0, "control cycles per second (feedback with each)", unit="Hz", gt=0, le=50),
+    Param("base_frame", FRAME, "base_link", "the robot frame of the goal, the feedback and the result"),
+    Param("sources", list, None, "the obstacle sensors, as collision_monitor's ~sources (config/sources.yaml); "
+          "unset: the pose is not checked", optional=True),
+    Param("acquire_radius", float, 0.6, "the goal's (x, y) picks the tracked person within this of it", unit="m",
+          gt=0),
+    Param("tracker_timeout", float, 1.0, "a goal needs a tracked_users message this recent", unit="s", gt=0),
+    Param("default_distance", float, 0.6, "desired_distance of a goal that leaves it 0 (personal space: "
+          "0.45-1.2 m)", unit="m", gt=0),
+    Param("default_max_lin_speed", float, 0.3, "max_lin_speed of a goal that leaves it 0", unit="m/s", gt=0, le=0.5),
+    Param("default_max_ang_speed", float, 1.0, "max_ang_speed of a goal that leaves it 0", unit="rad/s", gt=0, le=3),
+    Param("robot_radius", float, 0.18, "the robot's radius (with ~person_radius: the least desired_distance; the "
+          "clearance the pose needs from obstacles)", unit="m", gt=0),
+    Param("person_radius", float, 0.25, "a person's radius", unit="m", gt=0),
+    Param("pass_distance", float, 0.5, "how near the person the robot's centre may pass on its way (at least the "
+          "desired distance)", unit="m", gt=0),
+    Param("xy_tolerance", float, 0.05, "the goal position is reached within this", unit="m", gt=0),
+    Param("yaw_tolerance", float, 0.05, "the final heading is reached within this", unit="rad", gt=0),
+    Param("lost_timeout", float, 3.0, "a person unseen this long ends the goal ABORTED", unit="s", gt=0),
+    Param("max_person_shift", float, 1.0, "a person who moves this far from where they were at goal time ends the "
+          "goal ABORTED", unit="m", gt=0),
+    Param("stuck_timeout", float, 5.0, "no progress of 0.05 m toward the position for this long ends the goal "
+          "ABORTED (blocked)", unit="s", gt=0),
+    Param("time_limit", float, 60.0, "a goal not reached in this long ends ABORTED", unit="s", gt=0),
+    Param("reacquire_radius", float, 0.5, "a new track this near where the person was expected is taken for them",
+          unit="m", gt=0),
+)
+
+
+class ApproachMeNode(Behaviour):
+    def __init__(self):
+        p = self.params = read_params(PARAMS)
+        specs = parse_sources(p.sources) if p.sources is not None else []
+        super().__init__("approach_me", ApproachMeAction, p.rate)
+        self.lock = threading.Lock()
+        self.gains = read_params(GAINS)
+        self.person = self.approacher = self.last_step = None
+        self.frame = None
+        self.snap_seen = -math.inf
+        self.commanding = False
+        self.cmd = rospy.Publisher("cmd_vel", Twist, queue_size=1)
+        self.state_pub = rospy.Publisher("~state", String, queue_size=1, latch=True)
+        self.state_pub.publish(String("idle"))
+        self.goal_pub = rospy.Publisher("~goal_pose", PoseStamped, queue_size=1, latch=True)
+        self.tf_buffer = tf2_ros.Buffer()
+        self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
+        self.people = TrackedPeople("tracked_users", TrackedUsers, self.tf_buffer, LOG)
+        self.obstacles = ScanSources(specs, "odom", self.tf_buffer, log_prefix=LOG) if specs else None
+        self.diag = Diagnostics("approach_me")
+        self.diag.add("ApproachMe", self._diagnose)
+        self.reconfigure = Reconfigure(ApproachMeConfig, GAINS, self._on_gains, LOG)
+        self.start()
+
+    def _on_gains(self, gains):
+        with self.lock:
+            self.gains = gains
+            if self.approacher is not None:
+                self.approacher.gains = gains
+
+    # --- the goal ----------------------------------------------------------------------------------
+    def request(self, goal):
+        """(Request, None) after defaults, or (None, why the goal is refused)."""
+        p = self.params
+        fields = {"x": goal.x, "y": goal.y, "desired_distance": goal.desired_distance,
+                  "desired_p2r_orientation": goal.desired_p2r_orientation,
+                  "desired_r2p_orientation": goal.desired_r2p_orientation, "max_lin_speed": goal.max_lin_speed,
+                  "max_ang_speed": goal.max_ang_speed}
+        bad = [f"{k} = {v}" for k, v in fields.items() if not math.isfinite(v)]
+        bad += [f"{k} = {v} (must be >= 0)" for k in ("desired_distance", "max_lin_speed", "max_ang_speed")
+                if (v := fields[k]) < 0]
+        if bad:
+            return None, "bad goal: " + ", ".join(bad)
+        if math.hypot(goal.x, goal.y) < p.robot_radius:
+            return None, (f"bad goal: (x, y) = ({goal.x:.2f}, {goal.y:.2f}) is the robot's own position, not a "
+                          "person's")
+        req = Request(goal.desired_distance or p.default_distance, goal.desired_p2r_orientation,
+                      goal.desired_r2p_orientation, min(goal.max_lin_speed or p.default_max_lin_speed, 0.5),
+                      goal.max_ang_speed or p.default_max_ang_speed)
+        nearest = p.robot_radius + p.person_radius
+        if req.distance < nearest:
+            return None, (f"bad goal: desired_distance {req.distance:.2f} m is below the robot's radius plus a "
+                          f"person's ({nearest:.2f} m)")
+        return req, None
+
+    def begin(self, goal):
+        p = self.params
+        req, why = self.request(goal)
+        if why:
+            return why
+        snap = self.people.latest(max_age=p.tracker_timeout)
+        if snap is None:
+            return self.people.problem
+        robot, why = self.people.robot_pose(snap.frame or "odom", p.base_frame)
+        if robot is None:
+            return why
+        point = pose2d.transform_points(robot, [(goal.x, goal.y)])[0]
+        person, why = acquire(snap.ids, snap.xy, snap.velocities, snap.stamp, point, p.acquire_radius,
+                              reacquire_radius=p.reacquire_radius, max_extrapolation=0.3)
+        if person is None:
+            return f"{why} (goal ({goal.x:.2f}, {goal.y:.2f}) in {p.base_frame})"
+        approacher = Approacher(self.gains, req, person.xy, robot[:2], p.rate, p.xy_tolerance, p.yaw_tolerance,
+                                p.pass_distance)
+        why = self._blocked(snap.frame, approacher.goal(person.xy))
+        if why:
+            return why
+        with self.lock:
+            self.frame, self.person, self.approacher, self.snap_seen = snap.frame, person, approacher, snap.received
+            self.person0 = person.xy
+            self.started = rospy.get_time()
+            self.progress = (math.inf, self.started)  # (least distance left [m], when)
+            self.commanding = True
+        rospy.loginfo(LOG + "approaching person %d at (%.2f, %.2f) in %s: %.2f m, p2r %.2f rad, r2p %.2f rad",
+                      person.pid, point[0], point[1], snap.frame, req.distance, req.p2r, req.r2p)
+        return None
+
+    def _blocked(self, frame, goal_xy):
+        """Why the goal position is not free (an obstacle point within the robot's radius), or None."""
+        if self.obstacles is None:
+            return None
+        points = self.obstacles.points()
+        if not len(points):
+            return None
+        if frame != "odom":
+            m, _ = self.people.robot_pose(frame, "odom")  # odom in the tracker's frame
+            if m is None:
+                return None
+            points = pose2d.transform_points(m, points[:, :2])
+        gap = np.hypot(points[:, 0] - goal_xy[0], points[:, 1] - goal_xy[1])
+        k = int(np.argmin(gap))
+        if gap[k] < self.params.robot_radius:
+            return (f"the pose cannot be reached: its position ({goal_xy[0]:.2f}, {goal_xy[1]:.2f}) in {frame} is "
+                    f"inside an obstacle ({gap[k]:.2f} m from a return of the laser or the Kinect)")
+        return None
+
+    def step(self, goal):
+        p = self.params
+        now = rospy.get_time()
+        snap = self.people.latest()
+        with self.lock:
+            person, approacher = self.person, self.approacher
+            if snap is not None and snap.received > self.snap_seen and snap.frame == self.frame:
+                self.snap_seen = snap.received
+                person.update(snap.ids, snap.xy, snap.velocities, snap.stamp)
+        ending = self._ending(person, now)
+        if ending is not None:
+            return ending
+        robot, why = self.people.robot_pose(self.frame, p.base_frame)
+        if robot is None:
+            self._publish(0.0, 0.0)
+            rospy.logwarn_throttle(5.0, LOG + "stopped: %s", why)
+            return None
+        out = approacher.step(robot, person.xy)
+        self.last_step = (out, robot, person.xy)
+        self.server.publish_feedback(ApproachMeFeedback(*self._local(robot, person.xy)))
+        self.state_pub.publish(String(out.text))
+        if out.phase == DONE:
+            self._publish(0.0, 0.0)
+            return succeeded(f"reached: {out.position_error:.3f} m from the position, {abs(out.heading_error):.3f} "
+                             "rad from the heading", self.result())
+        left, since = self.progress
+        if out.position_error < left - 0.05 or out.phase != "drive":
+            self.progress = (out.position_error, now)
+        elif now - since > p.stuck_timeout:
+            return aborted(f"the pose cannot be reached: no progress for {p.stuck_timeout:.0f} s, "
+                           f"{out.position_error:.2f} m from it (blocked by an obstacle?)", self.result())
+        self._publish(out.v, out.w)
+        self.goal_pub.publish(pose_stamped(*out.goal, self.frame, rospy.Time.now()))
+        return None
+
+    def _ending(self, person, now):
+        """ABORTED when the person is lost or moved away, or time is up; else None."""
+        p = self.params
+        if person.unseen_for(now) > p.lost_timeout:
+            return aborted(f"person lost: {person.pid} unseen for {person.unseen_for(now):.1f} s", self.result())
+        shift = math.dist(person.xy, self.person0)
+        if shift > p.max_person_shift:
+            return aborted(f"the person moved away: {shift:.2f} m from where they were (more than "
+                           f"{p.max_person_shift:.2f} m)", self.result())
+        if now - self.started > p.time_limit:
+            return aborted(f"the pose was not reached in {p.time_limit:.0f} s", self.result())
+        return None
+
+    @staticmethod
+    def _local(robot, xy):
+        x, y = pose2d.transform_points(pose2d.inverse(robot), [xy])[0]
+        return float(x), float(y)
+
+    def _publish(self, v, w):
+        msg = Twist()
+        msg.linear.x, msg.angular.z = v, w
+        self.cmd.publish(msg)
+
+    def result(self):
+        if self.last_step is None:
+            return ApproachMeResult()
+        _, robot, xy = self.last_step
+        return ApproachMeResult(*self._local(robot, xy))
+
+    def halt(self):
+        with self.lock:
+            was, self.commanding = self.commanding, False
+            if self.approacher is not None:
+                self.approacher.stop()
+        if was:
+            self._publish(0.0, 0.0)
+            self.state_pub.publish(String("idle"))
+
+    # --- diagnostics -------------------------------------------------------------------------------
+    def _diagnose(self, stat):
+        with self.lock:
+            person, last, active = self.person, self.last_step, self.commanding
+        snap = self.people.latest()
+        age = rospy.get_time() - snap.received if snap is not None else math.inf
+        level = OK if age <= self.params.tracker_timeout else WARN
+        stat.summary(level, last[0].text if active and last is not None else "idle")
+        stat.add("tracked_users", f"{age:.2f} s ago, {self.people.received} received, {self.people.skipped} skipped"
+                 if snap is not None else self.people.problem)
+        if person is not None:
+            stat.add("person", f"{person.pid} (ids {sorted(person.own_ids)})")
+        if last is not None:
+            out = last[0]
+            stat.add("phase", out.phase)
+            stat.add("position error (m)", f"{out.position_error:.3f}")
+            stat.add("heading error (rad)", f"{out.heading_error:.3f}")
+        if self.obstacles is not None:
+            stat.add("obstacle sources", ", ".join(f"{n} {a:.1f} s ago"
+                                                   for n, a in self.obstacles.ages(rospy.get_time()).items()))
+        stat.add("gains", ", ".join(f"{k} {v}" for k, v in self.gains.items()))
+        return stat
+
+
+def main():
+    run(ApproachMeNode, "approach_me_node")
