@@ -25,8 +25,6 @@ PENDING = {
     ("florence_locator", "florence_locator_node"): "not scheduled yet",
     ("detect_users", "detect_users_node"): "not scheduled yet",
     ("approach_me_map", "approach_me_map_node"): "not scheduled yet",
-    ("follow_me", "follow_me_node"): "not scheduled yet",
-    ("approach_me", "approach_me_node"): "not scheduled yet",
 }
 
 FILES = workspace.launch_files()

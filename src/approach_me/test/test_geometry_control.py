@@ -46,11 +46,14 @@ def test_final_heading_relative_to_the_line_to_the_person(r2p):
     assert bearing == pytest.approx(-r2p)
 
 
-def test_the_way_keeps_clear_of_the_person():
-    straight = geometry.approach_path(R0, P, (1.4, 1.0), 0.6)
-    assert straight == [(1.4, 1.0)]
+def test_the_way_keeps_clear_of_the_person_and_ends_facing_them():
+    # from the front: straight to 0.3 m beyond the goal, then in toward the person
+    assert geometry.approach_path(R0, P, (1.4, 1.0), 0.6) == [pytest.approx((1.1, 1.0)), (1.4, 1.0)]
+    # already on the final leg: straight in
+    assert geometry.approach_path((1.2, 1.0), P, (1.4, 1.0), 0.6) == [(1.4, 1.0)]
     behind = geometry.approach_path(R0, P, (2.6, 1.0), 0.6, turn_sign=1.0)
     assert len(behind) > 3
+    assert behind[-2] == pytest.approx((2.9, 1.0)) and behind[-1] == (2.6, 1.0)  # the final leg, westward
     # every leg of the way stays 0.6 m from the person (to within the chords' sagitta)
     legs = zip([R0, *behind[:-1]], behind, strict=True)
     assert min(geometry.segment_distance(P, a, b) for a, b in legs) > 0.6 * math.cos(0.15) - 1e-9
@@ -98,7 +101,9 @@ def simulate(request, person=P, robot=(0.0, 1.0, 0.0), seconds=40.0, shift=None,
 
 
 def check(request, robot, person=P, start=R0):
-    direction = geometry.approach_direction(person, start, request.p2r)
+    """(position error, heading error) of the final ``robot`` pose: the direction is fixed at goal time
+    (by P and ``start``), the position follows the person to ``person``."""
+    direction = geometry.approach_direction(P, start, request.p2r)
     gx, gy = geometry.goal_position(person, direction, request.distance)
     yaw = geometry.final_heading(robot[:2], person, request.r2p)
     return math.hypot(robot[0] - gx, robot[1] - gy), abs(diff(yaw, robot[2]))

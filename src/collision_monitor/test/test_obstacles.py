@@ -75,6 +75,17 @@ def test_too_near_to_see_and_hidden_are_remembered_seen_through_is_not():
     assert len(m.points) == 2, "a point seen again is not kept twice"
 
 
+def test_what_is_too_near_to_see_in_front_is_kept_while_the_robot_stands_before_it():
+    m = ObstacleMemory(memory=3.0)
+    m.update(scan_of([(1.0, 0.0)], range_min=0.45))
+    for k in range(1, 200):  # 20 s standing 0.3 m before it
+        m.update(scan_of([], robot=(0.7, 0.0, 0.0), stamp=0.1 * k, range_min=0.45))
+    assert xy(m) == {(1.0, 0.0)}
+    m.update(scan_of([], robot=(0.7, 0.0, math.pi), stamp=20.0, range_min=0.45))  # turned away
+    m.update(scan_of([], robot=(0.7, 0.0, math.pi), stamp=23.5, range_min=0.45))
+    assert xy(m) == set()
+
+
 def test_returns_of_the_robot_itself_are_dropped():
     m = ObstacleMemory(self_range=0.18)
     m.update(scan_of([(0.13, 0.05), (0.6, 0.0)]))

@@ -6,7 +6,8 @@ w [rad/s]), REP 103.
 
 Phase 1 (``drive``): the goal G follows the person (geometry.goal_position along the direction fixed
 at goal time); the robot steers (w = k_angular * bearing) to the first waypoint of
-geometry.approach_path at least ``lookahead`` away, which keeps it ``pass_radius`` from the person,
+geometry.approach_path at least ``lookahead`` away, which keeps it ``pass_radius`` from the person
+and ends with ``final_leg`` straight toward them (it arrives facing the person, who stays in view),
 at v = min(max speed, k_linear * distance left, the speed it can stop from at ``decel``) * cos(bearing)
 (no driving on while facing away). A goal less than ``max_reverse`` behind the robot on a straight
 path is reached backwards. Within ``xy_tolerance`` of G: phase 2.
@@ -41,6 +42,8 @@ GAINS = ParamTable(
     Param("min_turn_rate", float, 0.15, "least turn rate of phase 2 (so that it ends)", unit="rad/s", ge=0, le=1),
     Param("max_reverse", float, 0.5, "a goal position at most this far behind the robot is reached backwards",
           unit="m", ge=0, le=1.5),
+    Param("final_leg", float, 0.3, "the way ends with this much straight toward the person (the robot arrives "
+          "facing them)", unit="m", ge=0, le=1),
 )
 
 
@@ -125,7 +128,7 @@ class Approacher:
 
     def _drive(self, robot, person, goal, err, yaw):
         g, r = self.gains, self.request
-        path = geometry.approach_path(robot[:2], person, goal, self.pass_radius, self.turn_sign)
+        path = geometry.approach_path(robot[:2], person, goal, self.pass_radius, g.final_leg, self.turn_sign)
         target = next((p for p in path if math.hypot(p[0] - robot[0], p[1] - robot[1]) >= g.lookahead), path[-1])
         tx, ty = pose2d.transform_points(pose2d.inverse(robot), [target])[0]
         bearing = math.atan2(ty, tx)

@@ -43,7 +43,6 @@ from approach_me.control import DONE, GAINS, Approacher, Request
 from approach_me.msg import ApproachMeAction, ApproachMeFeedback, ApproachMeResult
 from florence_common import pose as pose2d
 from florence_common.params import FRAME, Param, ParamTable
-from florence_common.people import acquire
 from florence_common_ros.behaviour import Behaviour, aborted, succeeded
 from florence_common_ros.convert import pose_stamped
 from florence_common_ros.diagnostics import OK, WARN, Diagnostics
@@ -61,6 +60,8 @@ PARAMS = ParamTable(
     Param("acquire_radius", float, 0.6, "the goal's (x, y) picks the tracked person within this of it", unit="m",
           gt=0),
     Param("tracker_timeout", float, 1.0, "a goal needs a tracked_users message this recent", unit="s", gt=0),
+    Param("acquire_wait", float, 0.5, "how long a goal waits for the tracker's next messages when the latest has "
+          "nobody near (x, y) (a track that flickered)", unit="s", ge=0, le=5),
     Param("default_distance", float, 0.6, "desired_distance of a goal that leaves it 0 (personal space: "
           "0.45-1.2 m)", unit="m", gt=0),
     Param("default_max_lin_speed", float, 0.3, "max_lin_speed of a goal that leaves it 0", unit="m/s", gt=0, le=0.5),
@@ -143,17 +144,11 @@ class ApproachMeNode(Behaviour):
         req, why = self.request(goal)
         if why:
             return why
-        snap = self.people.latest(max_age=p.tracker_timeout)
-        if snap is None:
-            return self.people.problem
-        robot, why = self.people.robot_pose(snap.frame or "odom", p.base_frame)
-        if robot is None:
-            return why
-        point = pose2d.transform_points(robot, [(goal.x, goal.y)])[0]
-        person, why = acquire(snap.ids, snap.xy, snap.velocities, snap.stamp, point, p.acquire_radius,
-                              reacquire_radius=p.reacquire_radius, max_extrapolation=0.3)
+        person, snap, robot, why = self.people.attend((goal.x, goal.y), p.base_frame, p.acquire_radius,
+                                                      p.tracker_timeout, p.acquire_wait,
+                                                      reacquire_radius=p.reacquire_radius, max_extrapolation=0.3)
         if person is None:
-            return f"{why} (goal ({goal.x:.2f}, {goal.y:.2f}) in {p.base_frame})"
+            return why
         approacher = Approacher(self.gains, req, person.xy, robot[:2], p.rate, p.xy_tolerance, p.yaw_tolerance,
                                 p.pass_distance)
         why = self._blocked(snap.frame, approacher.goal(person.xy))
@@ -166,7 +161,7 @@ class ApproachMeNode(Behaviour):
             self.progress = (math.inf, self.started)  # (least distance left [m], when)
             self.commanding = True
         rospy.loginfo(LOG + "approaching person %d at (%.2f, %.2f) in %s: %.2f m, p2r %.2f rad, r2p %.2f rad",
-                      person.pid, point[0], point[1], snap.frame, req.distance, req.p2r, req.r2p)
+                      person.pid, person.xy[0], person.xy[1], snap.frame, req.distance, req.p2r, req.r2p)
         return None
 
     def _blocked(self, frame, goal_xy):

@@ -3,10 +3,13 @@
 
 Each scan's returns replace the sensor's points, in a fixed frame (odom) so that they stay where
 they are while the robot moves between scans. A point of an earlier scan that the new scan cannot
-observe is remembered for ``memory`` s: one outside the new scan's angular span (beside or behind
-the robot), nearer than its ``range_min`` (the Kinect sees nothing nearer than about 0.5 m: a chair
-seat it saw on the way in is still there when it is too near to see), or hidden behind a nearer
-return. A remembered point the new scan looks at and sees through is gone (it moved away).
+observe is remembered: one outside the new scan's angular span (beside or behind the robot) or
+hidden behind a nearer return for ``memory`` s after it was last seen; one in the sensor's blind
+zone in front, nearer than its ``range_min`` (the Kinect sees nothing nearer than about 0.5 m: a
+chair seat it saw on the way in is still there when it is too near to see), for as long as it is
+there, and ``memory`` s once the robot turned away from it. A remembered point the new scan looks
+at and sees through is gone (it moved away). A person who left the blind zone unseen is an obstacle
+until the robot backs off far enough to see the place again: the safe mistake.
 """
 
 import math
@@ -91,16 +94,20 @@ class ObstacleMemory:
         r = np.asarray(scan.ranges, dtype=float)
         fresh, _ = scan_points(r, scan.angle_min, scan.angle_increment, max(scan.range_min, self.self_range),
                                scan.range_max, scan.pose)
-        keep = self._unobserved(scan, r) & (scan.stamp - self.seen_at <= self.memory)
+        unobserved, blind = self._unobserved(scan, r)
+        # a point in the blind zone in front stays as long as it is there: the robot stands before it
+        self.seen_at[blind] = float(scan.stamp)
+        keep = unobserved & (scan.stamp - self.seen_at <= self.memory)
         self.points = np.vstack([fresh, self.points[keep]])
         self.seen_at = np.concatenate([np.full(len(fresh), float(scan.stamp)), self.seen_at[keep]])
         self.stamp = float(scan.stamp)
         return int(np.count_nonzero(keep))
 
     def _unobserved(self, scan, ranges):
-        """Which of the current points the new scan cannot observe."""
+        """(which of the current points the new scan cannot observe, which of those lie in its blind
+        zone: inside its angular span but too near for it)."""
         if not len(self.points):
-            return np.zeros(0, dtype=bool)
+            return np.zeros(0, dtype=bool), np.zeros(0, dtype=bool)
         inv = np.linalg.inv(np.asarray(scan.pose, dtype=float))
         local = self.points @ inv[:3, :3].T + inv[:3, 3]
         rng = np.hypot(local[:, 0], local[:, 1])
@@ -113,8 +120,9 @@ class ObstacleMemory:
         unknown = ~np.isfinite(seen_to) | (seen_to <= scan.range_min)
         with np.errstate(invalid="ignore"):
             hidden = rng > seen_to + self.occlusion_margin
-        blind = (rng <= max(scan.range_min, self.self_range)) | (rng >= scan.range_max)
-        return outside | unknown | hidden | blind
+        near = rng <= max(scan.range_min, self.self_range)
+        far = rng >= scan.range_max
+        return outside | unknown | hidden | near | far, near & ~outside
 
     def clear(self):
         self.points, self.seen_at = np.zeros((0, 3)), np.zeros(0)

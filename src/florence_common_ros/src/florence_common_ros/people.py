@@ -12,12 +12,14 @@ warning; :attr:`TrackedPeople.problem` keeps the reason for the behaviour's abor
 """
 
 import threading
+import time
 from dataclasses import dataclass
 
 import numpy as np
 import rospy
 
 from florence_common import pose as pose2d
+from florence_common.people import acquire
 from florence_common_ros.convert import tracked_users
 from florence_common_ros.transforms import lookup_matrix
 
@@ -72,6 +74,29 @@ class TrackedPeople:
             self.problem = f"no message on {self.sub.name} for {age:.1f} s (is user_tracker_ni running?)"
             return None
         return snap
+
+    def attend(self, goal_xy, base_frame, radius, max_age, wait=0.5, **kwargs):
+        """The tracked person nearest to ``goal_xy`` (x, y) in ``base_frame`` within ``radius`` [m]:
+        (florence_common.people.AttendedPerson, Snapshot, robot pose in the tracker's frame, None), or
+        (None, None, None, why not). The tracker's next messages are waited for up to ``wait`` [s of
+        wall time] when the latest has nobody there (a track that flickered). ``kwargs`` go to the
+        AttendedPerson."""
+        deadline = time.monotonic() + wait
+        while True:
+            snap = self.latest(max_age=max_age)
+            if snap is None:
+                why = self.problem
+            else:
+                robot, why = self.robot_pose(snap.frame or "odom", base_frame)
+                if robot is not None:
+                    point = pose2d.transform_points(robot, [goal_xy])[0]
+                    person, why = acquire(snap.ids, snap.xy, snap.velocities, snap.stamp, point, radius, **kwargs)
+                    if person is not None:
+                        return person, snap, robot, None
+                    why = f"{why} (goal ({goal_xy[0]:.2f}, {goal_xy[1]:.2f}) in {base_frame})"
+            if time.monotonic() >= deadline or rospy.is_shutdown():
+                return None, None, None, why
+            time.sleep(0.05)
 
     def robot_pose(self, frame, base_frame):
         """((x, y, yaw) of ``base_frame`` in ``frame``, latest), or (None, why)."""

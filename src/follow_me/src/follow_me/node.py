@@ -30,9 +30,7 @@ import tf2_ros
 from geometry_msgs.msg import Twist
 from std_msgs.msg import String
 
-from florence_common import pose as pose2d
 from florence_common.params import FRAME, Param, ParamTable
-from florence_common.people import acquire
 from florence_common_ros.behaviour import Behaviour, aborted
 from florence_common_ros.diagnostics import OK, WARN, Diagnostics
 from florence_common_ros.node import read_params, run
@@ -50,6 +48,8 @@ PARAMS = ParamTable(
     Param("acquire_radius", float, 0.6, "the goal's (x, y) picks the tracked person within this of it", unit="m",
           gt=0),
     Param("tracker_timeout", float, 1.0, "a goal needs a tracked_users message this recent", unit="s", gt=0),
+    Param("acquire_wait", float, 0.5, "how long a goal waits for the tracker's next messages when the latest has "
+          "nobody near (x, y) (a track that flickered)", unit="s", ge=0, le=5),
     Param("default_max_lin_speed", float, 0.5, "max_lin_speed of a goal that leaves it 0 (the Create's top speed)",
           unit="m/s", gt=0, le=0.5),
     Param("default_max_ang_speed", float, 1.5, "max_ang_speed of a goal that leaves it 0", unit="rad/s", gt=0, le=3),
@@ -121,23 +121,17 @@ class FollowMeNode(Behaviour):
         limits, why = self.limits(goal)
         if why:
             return why
-        snap = self.people.latest(max_age=p.tracker_timeout)
-        if snap is None:
-            return self.people.problem
-        robot, why = self.people.robot_pose(snap.frame or "odom", p.base_frame)
-        if robot is None:
-            return why
-        point = pose2d.transform_points(robot, [(goal.x, goal.y)])[0]
-        person, why = acquire(snap.ids, snap.xy, snap.velocities, snap.stamp, point, p.acquire_radius,
-                              reacquire_radius=p.reacquire_radius)
+        person, snap, _, why = self.people.attend((goal.x, goal.y), p.base_frame, p.acquire_radius,
+                                                  p.tracker_timeout, p.acquire_wait,
+                                                  reacquire_radius=p.reacquire_radius)
         if person is None:
-            return f"{why} (goal ({goal.x:.2f}, {goal.y:.2f}) in {p.base_frame})"
+            return why
         with self.lock:
             self.frame, self.person, self.snap_seen = snap.frame, person, snap.received
             self.follower = Follower(self.gains, limits, p.rate, p.lost_grace, p.lost_timeout)
             self.commanding = True
         rospy.loginfo(LOG + "following person %d at (%.2f, %.2f) in %s; %.2f m/s, %.2f rad/s, %.2f m", person.pid,
-                      point[0], point[1], snap.frame, limits.max_lin_speed, limits.max_ang_speed,
+                      person.xy[0], person.xy[1], snap.frame, limits.max_lin_speed, limits.max_ang_speed,
                       limits.desired_distance)
         return None
 
