@@ -46,21 +46,23 @@ def test_final_heading_relative_to_the_line_to_the_person(r2p):
     assert bearing == pytest.approx(-r2p)
 
 
-def test_the_way_keeps_clear_of_the_person_and_ends_facing_them():
-    # from the front: straight to 0.3 m beyond the goal, then in toward the person
-    assert geometry.approach_path(R0, P, (1.4, 1.0), 0.6) == [pytest.approx((1.1, 1.0)), (1.4, 1.0)]
-    # already on the final leg: straight in
-    assert geometry.approach_path((1.2, 1.0), P, (1.4, 1.0), 0.6) == [(1.4, 1.0)]
-    behind = geometry.approach_path(R0, P, (2.6, 1.0), 0.6, turn_sign=1.0)
-    assert len(behind) > 3
-    assert behind[-2] == pytest.approx((2.9, 1.0)) and behind[-1] == (2.6, 1.0)  # the final leg, westward
-    # every leg of the way stays 0.6 m from the person (to within the chords' sagitta)
-    legs = zip([R0, *behind[:-1]], behind, strict=True)
-    assert min(geometry.segment_distance(P, a, b) for a, b in legs) > 0.6 * math.cos(0.15) - 1e-9
-    # counter-clockwise round the person: by the south (y < 1)
-    assert min(y for _, y in behind) < 1.0 - 0.5
-    clockwise = geometry.approach_path(R0, P, (2.6, 1.0), 0.6, turn_sign=-1.0)
-    assert max(y for _, y in clockwise) > 1.0 + 0.5
+@pytest.mark.parametrize("sweep_to, sign", [((1.4, 1.0), 0), ((2.0, 0.4), 0), ((2.6, 1.0), 1.0), ((2.6, 1.0), -1.0)])
+def test_the_way_is_a_spiral_that_keeps_the_person_at_one_bearing(sweep_to, sign):
+    path = geometry.approach_path(R0, P, sweep_to, turn_sign=sign)
+    assert path[-1] == sweep_to
+    pts = np.array([R0, *path])
+    r = np.hypot(pts[:, 0] - P[0], pts[:, 1] - P[1])
+    assert np.all(np.diff(r) <= 1e-9), "never nearer the person than the goal, never farther than the start"
+    heading = np.arctan2(*np.diff(pts, axis=0)[:, ::-1].T)
+    to_person = np.arctan2(P[1] - pts[:-1, 1], P[0] - pts[:-1, 0])
+    bearing = np.abs(diff(to_person, heading))
+    a = math.atan2(sweep_to[1] - P[1], sweep_to[0] - P[0])
+    sweep = abs(diff(a, math.pi)) if sign == 0 else math.pi
+    expected = geometry.spiral_bearing(2.0, 0.6, sweep)
+    assert np.all(np.abs(bearing - expected) < 0.12), (bearing, expected)
+    assert expected < math.radians(75), "inside the laser's +-90 degrees, with a margin"
+    if sign:  # which way round: counter-clockwise from the west passes by the south
+        assert (min(y for _, y in path) < 0.9) == (sign > 0)
 
 
 def simulate(request, person=P, robot=(0.0, 1.0, 0.0), seconds=40.0, shift=None, gains=None):
@@ -85,6 +87,9 @@ def simulate(request, person=P, robot=(0.0, 1.0, 0.0), seconds=40.0, shift=None,
             cmd = (out.v, out.w)
             if out.phase == DONE:
                 break
+            if out.phase == "drive" and k > 100:  # after the first second's turn toward the way
+                seen = abs(diff(math.atan2(person[1] - robot[1], person[0] - robot[0]), robot[2]))
+                a.peak_bearing = max(getattr(a, "peak_bearing", 0.0), seen)
         v += max(-dt, min(dt, cmd[0] - v))
         w += max(-dt, min(dt, cmd[1] - w))  # velocity_filter's 1 rad/s^2
         robot[0] += v * math.cos(robot[2]) * dt
@@ -122,6 +127,7 @@ def test_closed_loop_reaches_the_pose(name, p2r, r2p, start):
     pos, head = check(req, robot, start=start[:2])
     assert pos < 0.06 and head < 0.08, f"{name}: {pos:.3f} m, {head:.3f} rad"
     assert least > 0.6 - 0.05, f"{name}: passed {least:.2f} m from the person"
+    assert a.peak_bearing < math.radians(85), f"{name}: the person {a.peak_bearing:.2f} rad off the heading"
 
 
 def test_backs_up_to_a_goal_just_behind():

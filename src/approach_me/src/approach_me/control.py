@@ -6,8 +6,8 @@ w [rad/s]), REP 103.
 
 Phase 1 (``drive``): the goal G follows the person (geometry.goal_position along the direction fixed
 at goal time); the robot steers (w = k_angular * bearing) to the first waypoint of
-geometry.approach_path at least ``lookahead`` away, which keeps it ``pass_radius`` from the person
-and ends with ``final_leg`` straight toward them (it arrives facing the person, who stays in view),
+geometry.approach_path at least ``lookahead`` away (a spiral about the person that keeps them at one
+bearing, in view, and never brings the robot nearer than the goal),
 at v = min(max speed, k_linear * distance left, the speed it can stop from at ``decel``) * cos(bearing)
 (no driving on while facing away). A goal less than ``max_reverse`` behind the robot on a straight
 path is reached backwards. Within ``xy_tolerance`` of G: phase 2.
@@ -42,8 +42,6 @@ GAINS = ParamTable(
     Param("min_turn_rate", float, 0.15, "least turn rate of phase 2 (so that it ends)", unit="rad/s", ge=0, le=1),
     Param("max_reverse", float, 0.5, "a goal position at most this far behind the robot is reached backwards",
           unit="m", ge=0, le=1.5),
-    Param("final_leg", float, 0.3, "the way ends with this much straight toward the person (the robot arrives "
-          "facing them)", unit="m", ge=0, le=1),
 )
 
 
@@ -79,16 +77,14 @@ def _clamp(value, limit):
 
 class Approacher:
     """The controller of one goal: ``person0`` and ``robot0`` (x, y) at goal time fix the approach
-    direction; ``pass_radius`` [m]: how near the person the robot's centre may pass on its way."""
+    direction."""
 
-    def __init__(self, gains, request, person0, robot0, rate, xy_tolerance=0.05, yaw_tolerance=0.05,
-                 pass_radius=0.5):
+    def __init__(self, gains, request, person0, robot0, rate, xy_tolerance=0.05, yaw_tolerance=0.05):
         self.gains = gains
         self.request = request
         self.dt = 1.0 / rate
         self.xy_tolerance = xy_tolerance
         self.yaw_tolerance = yaw_tolerance
-        self.pass_radius = max(pass_radius, request.distance)
         self.direction = geometry.approach_direction(person0, robot0, request.p2r)
         self.turn_sign = math.copysign(1.0, request.p2r) if request.p2r else 0.0
         self.phase = DRIVE
@@ -128,21 +124,20 @@ class Approacher:
 
     def _drive(self, robot, person, goal, err, yaw):
         g, r = self.gains, self.request
-        path = geometry.approach_path(robot[:2], person, goal, self.pass_radius, g.final_leg, self.turn_sign)
+        tx, ty = pose2d.transform_points(pose2d.inverse(robot), [goal])[0]
+        if abs(math.atan2(ty, tx)) > 2.0 * math.pi / 3.0 and err <= g.max_reverse:  # just behind: reverse to it
+            speed = min(r.max_lin_speed, g.k_linear * err, math.sqrt(2.0 * g.decel * err))
+            back = diff(math.atan2(ty, tx), math.pi)
+            v, w = self._command(-speed * max(0.0, math.cos(back)), g.k_angular * back)
+            return Step(v, w, DRIVE, (goal[0], goal[1], yaw), err, 0.0, f"backing to the goal position, {err:.2f} m")
+        path = geometry.approach_path(robot[:2], person, goal, self.turn_sign)
         target = next((p for p in path if math.hypot(p[0] - robot[0], p[1] - robot[1]) >= g.lookahead), path[-1])
         tx, ty = pose2d.transform_points(pose2d.inverse(robot), [target])[0]
         bearing = math.atan2(ty, tx)
-        left = err if len(path) == 1 else sum(math.dist(a, b) for a, b in zip([robot[:2], *path[:-1]], path,
-                                                                                strict=True))
+        left = sum(math.dist(a, b) for a, b in zip([robot[:2], *path[:-1]], path, strict=True))
         speed = min(r.max_lin_speed, g.k_linear * left, math.sqrt(2.0 * g.decel * left))
-        if len(path) == 1 and abs(bearing) > 2.0 * math.pi / 3.0 and err <= g.max_reverse:
-            back = diff(bearing, math.pi)  # the goal behind: reverse to it
-            v, w = self._command(-speed * max(0.0, math.cos(back)), g.k_angular * back)
-            text = f"backing to the goal position, {err:.2f} m"
-        else:
-            v, w = self._command(speed * max(0.0, math.cos(bearing)), g.k_angular * bearing)
-            text = f"driving to the goal position, {left:.2f} m" + (" around the person" if len(path) > 1 else "")
-        return Step(v, w, DRIVE, (goal[0], goal[1], yaw), err, 0.0, text)
+        v, w = self._command(speed * max(0.0, math.cos(bearing)), g.k_angular * bearing)
+        return Step(v, w, DRIVE, (goal[0], goal[1], yaw), err, 0.0, f"driving to the goal position, {left:.2f} m")
 
     def stop(self):
         self.v = self.w = 0.0

@@ -45,35 +45,36 @@ def segment_distance(point, a, b):
     return float(np.linalg.norm(p - (a + t * ab)))
 
 
-def approach_path(robot_xy, person, goal, radius, final_leg=0.3, turn_sign=0.0, spacing=0.3):
-    """Waypoints [(x, y), ...] from ``robot_xy`` to ``goal`` that keep the robot's centre at least
-    ``radius`` from the person and end with a straight ``final_leg`` [m] toward the person, so
-    that the robot arrives facing them (with the person in front, in its sensors' view, and only
-    r2p left to turn). The final leg starts at Q, ``final_leg`` beyond the goal on the ray from the
-    person. Straight to Q when that keeps clear of the person; otherwise on to the circle through Q
-    (along the tangent, or straight out from inside it), around it every ``spacing`` rad to Q.
-    ``turn_sign``: which way around (+1 counter-clockwise) when the goal is about opposite the
-    robot; 0 = the shorter way. A robot already on the final leg goes straight to the goal."""
+def approach_path(robot_xy, person, goal, turn_sign=0.0, spacing=0.15):
+    """Waypoints [(x, y), ...] from ``robot_xy`` to ``goal`` on a logarithmic spiral about the person:
+    the distance to them shrinks (or grows) evenly with the angle swept round them, so that the
+    person stays at one bearing from the robot's way all along, in its sensors' view (a circle round
+    them would keep them abeam, at the edge of the laser's +-90 degrees, where the tracker loses a
+    standing person for good). Straight in when the goal lies on the robot's side of the person.
+    ``turn_sign``: which way round (+1 counter-clockwise) when the goal is about opposite the robot;
+    0 = the shorter way. Waypoints every ``spacing`` m or so, the goal last."""
     px, py = person
-    a_g = math.atan2(goal[1] - py, goal[0] - px)
-    reach = math.hypot(goal[0] - px, goal[1] - py) + final_leg  # Q's distance from the person
-    q = (px + reach * math.cos(a_g), py + reach * math.sin(a_g))
-    rng = math.hypot(robot_xy[0] - px, robot_xy[1] - py)
-    a_r = math.atan2(robot_xy[1] - py, robot_xy[0] - px)
-    if rng <= reach + 0.1 and abs(diff(a_r, a_g)) * rng <= 0.1:  # on the final leg (or just short of it)
-        return [tuple(goal)]
-    if segment_distance(person, robot_xy, q) >= radius - 1e-6:
-        return [q, tuple(goal)]
-    r = max(radius, reach)
-    delta = diff(a_g, a_r)
+    r0 = math.hypot(robot_xy[0] - px, robot_xy[1] - py)
+    r1 = math.hypot(goal[0] - px, goal[1] - py)
+    a0 = math.atan2(robot_xy[1] - py, robot_xy[0] - px)
+    delta = diff(math.atan2(goal[1] - py, goal[0] - px), a0)
     if turn_sign and abs(delta) > math.pi - 0.5 and math.copysign(1.0, delta) != math.copysign(1.0, turn_sign):
         delta += math.copysign(2.0 * math.pi, turn_sign)
-    sign = 1.0 if delta >= 0 else -1.0
-    # where the robot meets the circle: its tangent point (outside), or straight out (inside)
-    start = a_r + sign * math.acos(min(1.0, r / rng)) if rng > r else a_r
-    sweep = delta - (start - a_r)
-    if sign * sweep <= 0:  # the tangent point is already past the goal's side
-        return [q, tuple(goal)]
-    n = max(1, math.ceil(abs(sweep) / spacing))
-    arc = [(px + r * math.cos(start + sweep * k / n), py + r * math.sin(start + sweep * k / n)) for k in range(n + 1)]
-    return [*arc, tuple(goal)]
+    if r0 < 1e-6:
+        return [tuple(goal)]
+    length = abs(delta) * 0.5 * (r0 + r1) + abs(r0 - r1)  # about the spiral's length
+    n = max(1, math.ceil(length / spacing))
+    k = np.arange(1, n + 1) / n
+    r = r0 * (r1 / r0) ** k  # geometric in the angle: a logarithmic spiral
+    a = a0 + delta * k
+    pts = [(float(px + ri * math.cos(ai)), float(py + ri * math.sin(ai))) for ri, ai in zip(r, a, strict=True)]
+    pts[-1] = tuple(goal)
+    return pts
+
+
+def spiral_bearing(r0, r1, sweep):
+    """The person's bearing [rad] from the way of a spiral from distance ``r0`` to ``r1`` [m] over
+    ``sweep`` [rad] round them: pi/2 - atan(ln(r0 / r1) / |sweep|) (0 straight in, pi/2 abeam)."""
+    if sweep == 0:
+        return 0.0 if r0 >= r1 else math.pi
+    return math.pi / 2 - math.atan(math.log(r0 / r1) / abs(sweep))

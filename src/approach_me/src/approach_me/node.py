@@ -69,8 +69,6 @@ PARAMS = ParamTable(
     Param("robot_radius", float, 0.18, "the robot's radius (with ~person_radius: the least desired_distance; the "
           "clearance the pose needs from obstacles)", unit="m", gt=0),
     Param("person_radius", float, 0.25, "a person's radius", unit="m", gt=0),
-    Param("pass_distance", float, 0.5, "how near the person the robot's centre may pass on its way (at least the "
-          "desired distance)", unit="m", gt=0),
     Param("xy_tolerance", float, 0.05, "the goal position is reached within this", unit="m", gt=0),
     Param("yaw_tolerance", float, 0.05, "the final heading is reached within this", unit="rad", gt=0),
     Param("lost_timeout", float, 3.0, "a person unseen this long ends the goal ABORTED", unit="s", gt=0),
@@ -149,8 +147,7 @@ class ApproachMeNode(Behaviour):
                                                       reacquire_radius=p.reacquire_radius, max_extrapolation=0.3)
         if person is None:
             return why
-        approacher = Approacher(self.gains, req, person.xy, robot[:2], p.rate, p.xy_tolerance, p.yaw_tolerance,
-                                p.pass_distance)
+        approacher = Approacher(self.gains, req, person.xy, robot[:2], p.rate, p.xy_tolerance, p.yaw_tolerance)
         why = self._blocked(snap.frame, approacher.goal(person.xy))
         if why:
             return why

@@ -117,7 +117,7 @@ class CollisionMonitorNode:
         now = rospy.get_time()
         stale = self.sources.stale(now)
         silent = [f"{name} silent for {age:.1f} s" if math.isfinite(age) else f"no scan from {name} yet"
-                  for name, age, required in stale if required]
+                  for name, age, needed in stale if needed]
         if silent:
             return blind(v, w), "; ".join(silent)
         pose, why = lookup_matrix(self.tf_buffer, self.fixed_frame, self.base_frame, rospy.Time(0))
@@ -130,7 +130,7 @@ class CollisionMonitorNode:
         return decision, self._reason(decision, stale)
 
     def _reason(self, d, stale):
-        note = "".join(f"; {name} silent for {age:.1f} s (optional)" for name, age, _ in stale)
+        note = "".join(f"; no scan from {name} (optional)" for name, _, _ in stale)
         if d.state == SLOW:
             return (f"slowed to {d.scale:.0%}: the footprint would come within the stop distance in "
                     f"{d.stop_path:.2f} m{note}")

@@ -26,7 +26,8 @@ SOURCE = ParamTable(
     Param("topic", str, None, "its sensor_msgs/LaserScan topic (required)", optional=True),
     Param("timeout", float, 0.5, "a source silent this long is stale", unit="s", gt=0),
     Param("required", bool, True, "while it is stale the monitor stops every linear motion (turning in place "
-          "passes); a stale optional source is only reported"),
+          "passes); an optional source does so only once it has been heard from (a robot without it is only "
+          "warned about)"),
     Param("self_range", float, 0.0, "returns nearer than this to the sensor are the robot's own structure", unit="m",
           ge=0),
     Param("memory", float, 3.0, "how long points the sensor can no longer see (beside or behind the robot, too near "

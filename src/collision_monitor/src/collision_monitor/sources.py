@@ -77,8 +77,10 @@ class ScanSources:
             return {name: now - t for name, t in self.taken_at.items()}
 
     def stale(self, now):
-        """[(name, age [s], required)] of the sources silent for longer than their timeout."""
-        return [(name, age, self.specs[name].required) for name, age in self.ages(now).items()
+        """[(name, age [s], needed)] of the sources silent for longer than their timeout; ``needed``:
+        a required source, or an optional one that was heard from (it is part of this robot, and
+        failed: the Kinect that stopped sees no table top)."""
+        return [(name, age, self.specs[name].required or math.isfinite(age)) for name, age in self.ages(now).items()
                 if age > self.specs[name].timeout]
 
     def unregister(self):
