@@ -93,3 +93,70 @@ def latency(inputs, outputs, window=0.05):
 def percentiles(values, ps=(50, 90, 99)):
     values = np.asarray(values, dtype=float)
     return {f"p{p}": float(np.percentile(values, p)) if len(values) else None for p in ps}
+
+
+# --- the approach bench's placements ---------------------------------------------------------------------
+ROBOT_HEIGHT = 0.94  # [m] the robot's top (turtlebot_control's description): lower furniture stops it
+PERSON_HEIGHT = 1.8  # [m]
+
+
+def random_approach(scene, rng, tries=2000):
+    """One random approach placement in the world ``scene`` (florence_sim's): the robot somewhere free,
+    a person standing 1.5-2.2 m in front of it (within 20 degrees of its heading, in the Kinect's view,
+    nothing between them), a request (distance 0.5-0.9 m, p2r within +-120 degrees: never from behind,
+    r2p within +-0.5 rad) whose goal position and way (geometry.approach_path) keep the robot 0.30 m
+    clear of everything up to its height. Returns {"robot": (x, y, yaw), "person": (x, y), "distance",
+    "p2r", "r2p"}."""
+    def clear(xy, margin, height=ROBOT_HEIGHT):
+        dist, _ = scene.clearance(np.asarray(xy, dtype=float).reshape(-1, 2), z_max=height, z_min=0.0)
+        return bool(np.all(dist >= margin))
+
+    for _ in range(tries):
+        robot = (rng.uniform(0.4, 7.6), rng.uniform(0.4, 9.6), rng.uniform(-math.pi, math.pi))
+        rng_m = rng.uniform(1.5, 2.2)
+        bearing = robot[2] + rng.uniform(-0.35, 0.35)
+        person = (robot[0] + rng_m * math.cos(bearing), robot[1] + rng_m * math.sin(bearing))
+        distance, p2r, r2p = rng.uniform(0.5, 0.9), rng.uniform(-2.1, 2.1), rng.uniform(-0.5, 0.5)
+        goal = approach_target(person, robot[:2], distance, p2r)
+        way = geometry.approach_path(robot[:2], person, goal, math.copysign(1.0, p2r))
+        sight = np.linspace(robot[:2], person, 12)[1:-3]
+        if (clear([robot[:2]], 0.35) and clear([person], 0.45, PERSON_HEIGHT) and clear([goal], 0.35)
+                and clear(way, 0.30) and clear(sight, 0.15, PERSON_HEIGHT)):
+            return {"robot": tuple(float(v) for v in robot), "person": tuple(float(v) for v in person),
+                    "distance": float(distance), "p2r": float(p2r), "r2p": float(r2p)}
+    raise RuntimeError(f"no free approach placement in {tries} tries")
+
+
+def plot(path, grid, follows, approaches, title):
+    """The following runs (robot and person paths) and the approaches (start, person, goal, end) over
+    the map, written to ``path``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(13, 7.5))
+    for ax in axes:
+        ax.imshow(grid.shades(), cmap="gray", origin="lower", extent=grid.extent, vmin=0, vmax=1)
+        ax.set_xlabel("x [m]")
+        ax.set_ylabel("y [m]")
+    ax = axes[0]
+    for k, run in enumerate(follows):
+        robot, person = np.asarray(run["robot_track"]), np.asarray(run["person_track"])
+        ax.plot(person[:, 1], person[:, 2], "-", color="tab:red", lw=1.2, label="person" if k == 0 else None)
+        ax.plot(robot[:, 1], robot[:, 2], "-", color="tab:blue", lw=0.9, label="robot" if k == 0 else None)
+    ax.legend(loc="upper right", fontsize=8)
+    ax.set_title("follow_me: robot and person paths", fontsize=9)
+    ax = axes[1]
+    for run in approaches:
+        colour = "tab:green" if run["state"] == "SUCCEEDED" else "tab:red"
+        track = np.asarray(run["robot_track"])
+        if len(track):
+            ax.plot(track[:, 1], track[:, 2], "-", color=colour, lw=0.8, alpha=0.8)
+        ax.plot(*run["person"], "o", color="tab:red", ms=4)
+        ax.plot(*run["goal"], "x", color="k", ms=4)
+    ax.set_title("approach_me: ways to the goal (x) beside the person (o); red: not reached", fontsize=9)
+    fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)

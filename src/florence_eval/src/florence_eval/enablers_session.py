@@ -11,6 +11,8 @@ the robot frame, here taken from the simulator, stands for what detect_users giv
 teleop on the multiplexer's teleop input.
 """
 
+import itertools
+import math
 import time
 
 import actionlib
@@ -213,6 +215,80 @@ class EnablersSession(PeopleSession):
 
         wait_for(lambda: seen() or self.sim_now() - start > timeout, 20 * timeout + 30, what=f"{pid} tracked")
         return seen()
+
+    # --- scenes and trials -------------------------------------------------------------------------------
+    def scene(self, robot, **people):
+        """Nobody but ``people`` (id -> people-file spec), the robot carried to ``robot`` (amcl told),
+        the tracker restarted (~Stop, ~Start) and every person tracked; returns the simulated time."""
+        from user_tracker_ni.srv import Start, Stop
+
+        for client in (self.follow_client, self.approach_client):
+            client.cancel_all_goals()
+        self.stop()
+        rospy.ServiceProxy("/user_tracker_ni_node/Stop", Stop)()
+        self.remove_people()
+        self.set_robot(*robot)
+        for pid, spec in people.items():
+            self.set_person(pid, **spec)
+        self.wait_sim(1.5)  # amcl takes the new pose, the laser the free floor
+        if not rospy.ServiceProxy("/user_tracker_ni_node/Start", Start)().success:
+            raise RuntimeError("user_tracker_ni_node did not start")
+        for pid in people:
+            if not self.wait_tracked(pid):
+                raise RuntimeError(f"{pid} not tracked")
+        return self.sim_now()
+
+    def follow_trial(self, robot, pid, path, speed, shirt, desired=1.0, close_in=2.0, settle=15.0):
+        """FollowMe behind ``pid`` standing at ``path[0]`` with the robot at ``robot``: the goal, ``close_in``
+        s, then the person walks ``path`` once at ``speed`` [m/s]; ended when the robot settled
+        within 0.2 m of ``desired`` behind them after they arrived (at most ``settle`` s later). The
+        goal is left running. Returns the measures (enablers_metrics.following, from the walk's start),
+        the goal's state, the collisions and the tracks."""
+        from florence_eval import enablers_metrics
+
+        heading = math.atan2(path[1][1] - path[0][1], path[1][0] - path[0][0])
+        t0 = self.scene(robot, **{pid: {"pose": [*path[0], heading], "shirt": shirt}})
+        collisions = self.collisions
+        self.follow(pid, distance=desired)
+        self.wait_sim(close_in)
+        self.set_person(pid, path=[list(p) for p in path], speed=speed, mode="once", shirt=shirt)
+        walk = self.sim_now()
+        self.wait_sim(sum(math.dist(a, b) for a, b in itertools.pairwise(path)) / speed)
+        arrived = self.sim_now()
+        wait_for(lambda: abs(math.dist(self.pose()[:2], self.person(pid)) - desired) < 0.2
+                 or self.sim_now() - arrived > settle, 20 * settle + 60, what="the robot settling behind")
+        self.wait_still(timeout=60)
+        end = self.sim_now()
+        result = enablers_metrics.following(self.truth_log(walk), self.person_log(pid, walk),
+                                            self.feedback_log("follow_me", walk), self.states_log("follow_me", t0),
+                                            desired, walk, end)
+        return {**result, "state": STATE_NAMES.get(self.follow_client.get_state()),
+                "text": self.follow_client.get_goal_status_text(), "collisions": self.collisions - collisions,
+                "final_distance_m": math.dist(self.pose()[:2], self.person(pid)), "walk_s": arrived - walk,
+                "robot_track": self.truth_log(walk, end)[::5].round(3).tolist(),
+                "person_track": self.person_log(pid, walk, end)[::5].round(3).tolist()}
+
+    def approach_trial(self, robot, pid, person, shirt, distance, p2r, r2p, timeout=60.0):
+        """ApproachMe to ``pid`` standing at ``person`` with the robot at ``robot``; judged by ground truth
+        (enablers_metrics.approach_errors) once the robot is at rest. Returns the measures."""
+        from florence_eval import enablers_metrics
+
+        heading = math.atan2(robot[1] - person[1], robot[0] - person[0])  # facing the robot
+        t0 = self.scene(robot, **{pid: {"pose": [*person, heading], "shirt": shirt}})
+        collisions, robot0, person0 = self.collisions, self.pose(), self.person(pid)
+        self.approach(pid, distance=distance, p2r=p2r, r2p=r2p)
+        state, text = self.wait_result(self.approach_client, timeout)
+        self.wait_still(timeout=60)
+        pos, head = enablers_metrics.approach_errors(self.pose(), person0, robot0[:2], self.person(pid), distance,
+                                                     p2r, r2p)
+        goal = enablers_metrics.approach_target(person0, robot0[:2], distance, p2r)
+        track = self.truth_log(t0)
+        least = (float(np.min(np.hypot(track[:, 1] - person0[0], track[:, 2] - person0[1]))) if len(track)
+                 else math.nan)
+        return {"state": state, "text": text, "position_error_m": pos, "heading_error_rad": head,
+                "collisions": self.collisions - collisions, "seconds": self.sim_now() - t0,
+                "least_distance_m": least, "robot": list(robot0), "person": list(person0), "goal": list(goal),
+                "distance": distance, "p2r": p2r, "r2p": r2p, "robot_track": track[::5].round(3).tolist()}
 
     # --- logs ------------------------------------------------------------------------------------------
     def truth_log(self, since=0.0, until=np.inf):
