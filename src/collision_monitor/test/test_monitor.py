@@ -171,3 +171,11 @@ def test_closed_loop_a_braking_robot_stops_short_of_the_wall(speed, period):
     assert v == pytest.approx(0.0, abs=1e-9)
     assert 0.0 < least <= 0.05 + 0.01, f"stopped {least:.3f} m from the wall, beyond the stop zone's edge"
     assert least >= 0.05 - 0.03, f"the stop zone was entered by {0.05 - least:.3f} m"
+
+
+def test_padding_makes_a_points_clearance_count_less():
+    seat = wall(0.40)  # 0.22 m of clearance
+    assert decide(seat, 0.3, 0.0, CFG).state == CLEAR
+    d = decide(seat, 0.3, 0.0, CFG, padding=np.full(len(seat), 0.08))
+    assert d.clearance == pytest.approx(0.40 - 0.18 - 0.08) and d.state == SLOW
+    assert decide(wall(0.30), 0.1, 0.0, CFG, padding=np.full(len(wall(0.30)), 0.08)).state == STOP

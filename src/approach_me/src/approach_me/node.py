@@ -165,7 +165,7 @@ class ApproachMeNode(Behaviour):
         """Why the goal position is not free (an obstacle point within the robot's radius), or None."""
         if self.obstacles is None:
             return None
-        points = self.obstacles.points()
+        points, _ = self.obstacles.points()
         if not len(points):
             return None
         if frame != "odom":

@@ -150,12 +150,16 @@ def clearances(points, poses, config):
     return polygon_clearance(local, np.asarray(config.footprint, dtype=float))
 
 
-def decide(points, v, w, config):
-    """The :class:`Decision` for command (v, w) among obstacle ``points`` [N, 2] in the base frame."""
+def decide(points, v, w, config, padding=None):
+    """The :class:`Decision` for command (v, w) among obstacle ``points`` [N, 2] in the base frame;
+    ``padding`` [N] [m]: how much less each point's clearance counts (a sensor that may place an
+    obstacle's edge that much beyond it), none by default."""
     cfg = config
     pts = np.asarray(points, dtype=float).reshape(-1, 2)
-    pts = pts[np.all(np.isfinite(pts), axis=1)]
-    now = clearances(pts, np.zeros((1, 3)), cfg)[0] if len(pts) else np.zeros(0)
+    pad = np.zeros(len(pts)) if padding is None else np.asarray(padding, dtype=float).reshape(-1)
+    ok = np.all(np.isfinite(pts), axis=1)
+    pts, pad = pts[ok], pad[ok]
+    now = clearances(pts, np.zeros((1, 3)), cfg)[0] - pad if len(pts) else np.zeros(0)
     least = float(np.min(now)) if len(pts) else math.inf
     nearest_now = tuple(float(c) for c in pts[int(np.argmin(now))]) if len(pts) else (math.nan, math.nan)
     if v == 0.0:
@@ -165,14 +169,16 @@ def decide(points, v, w, config):
     poses, s = arc_poses(v, w, length, cfg.step, cfg.turn_step)
     # only points the swept footprint can come near are judged in full: first those within the
     # path's reach of the robot, then those near one of its poses
-    reach = cfg.reach + cfg.stop_distance + cfg.step
-    near = pts[np.hypot(pts[:, 0], pts[:, 1]) <= length + reach] if len(pts) else pts
+    reach = cfg.reach + cfg.stop_distance + cfg.step + (float(np.max(pad)) if len(pad) else 0.0)
+    keep = np.hypot(pts[:, 0], pts[:, 1]) <= length + reach if len(pts) else np.zeros(0, dtype=bool)
+    near, pad = pts[keep], pad[keep]
     if len(near):
         gap = np.min((near[None, :, 0] - poses[:, None, 0]) ** 2 + (near[None, :, 1] - poses[:, None, 1]) ** 2, axis=0)
-        near = near[gap <= reach * reach]
+        keep = gap <= reach * reach
+        near, pad = near[keep], pad[keep]
     if not len(near):
         return Decision(CLEAR, v, w, 1.0, math.inf, least, nearest_now)
-    c = clearances(near, poses, cfg)  # [K, M]
+    c = clearances(near, poses, cfg) - pad  # [K, M]
     least_ahead = np.min(c, axis=1)  # [K] the footprint's least clearance along the path
     limit = min(cfg.stop_distance, least_ahead[0] - cfg.approach_margin)  # inside the zone: no nearer than now
     hit = np.flatnonzero(least_ahead < limit)

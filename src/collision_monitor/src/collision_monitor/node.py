@@ -123,10 +123,10 @@ class CollisionMonitorNode:
         pose, why = lookup_matrix(self.tf_buffer, self.fixed_frame, self.base_frame, rospy.Time(0))
         if pose is None:
             return blind(v, w), why
-        points = self.sources.points()
+        points, padding = self.sources.points()
         inv = np.linalg.inv(pose)
         local = points @ inv[:2, :3].T + inv[:2, 3]
-        decision = decide(local, v, w, self.config)
+        decision = decide(local, v, w, self.config, padding)
         return decision, self._reason(decision, stale)
 
     def _reason(self, d, stale):

@@ -30,8 +30,11 @@ SOURCE = ParamTable(
           "warned about)"),
     Param("self_range", float, 0.0, "returns nearer than this to the sensor are the robot's own structure", unit="m",
           ge=0),
-    Param("memory", float, 3.0, "how long points the sensor can no longer see (beside or behind the robot, too near "
-          "for it, hidden) are remembered", unit="s", ge=0),
+    Param("padding", float, 0.0, "the clearance to this sensor's points counts this much less (a sensor that may "
+          "place an obstacle's edge beyond it: the Kinect loses the edge pixels of a seat seen at a grazing angle)",
+          unit="m", ge=0),
+    Param("memory", float, 3.0, "how long points the sensor can no longer see (beside or behind the robot, hidden) "
+          "are remembered; what is too near for it in front is kept as long as it is there", unit="s", ge=0),
     prefix="",
 )
 

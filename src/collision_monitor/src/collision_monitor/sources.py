@@ -66,10 +66,13 @@ class ScanSources:
         return None
 
     def points(self):
-        """Every source's obstacle points [N, 3] in the fixed frame."""
+        """(every source's obstacle points [N, 3] in the fixed frame, each point's padding [N] [m])."""
         with self.lock:
-            parts = [m.points for m in self.memories.values()]
-        return np.vstack(parts) if parts else np.zeros((0, 3))
+            parts = [(m.points, self.specs[name].padding) for name, m in self.memories.items()]
+        if not parts:
+            return np.zeros((0, 3)), np.zeros(0)
+        return (np.vstack([p for p, _ in parts]),
+                np.concatenate([np.full(len(p), pad) for p, pad in parts]))
 
     def ages(self, now):
         """{name: [s] since its last scan was taken (inf: none yet)}."""

@@ -115,6 +115,8 @@ class EnablersSession(PeopleSession):
         for client in (self.follow_client, self.approach_client):
             if not client.wait_for_server(rospy.Duration(timeout)):
                 raise RuntimeError(f"no action server {client.action_client.ns}")
+        rospy.wait_for_service("/user_tracker_ni_node/Stop", timeout)
+        rospy.wait_for_service("/user_tracker_ni_node/Start", timeout)
         time.sleep(1.0)  # a fresh action client's first goal can be lost while connections settle
 
     def pose(self):
