@@ -119,7 +119,7 @@ def test_stops_into_a_wall_and_lets_the_robot_back_away_and_turn(monitor):
              what="the wall 0.35 m ahead to slow the robot")
     v, w, state = send(rospy, cmd, out, states, 0.3, 0.0)
     assert 0 < v < 0.3 and state.state == "slow", state  # 0.17 m of clearance: slowed
-    assert state.clearance == pytest.approx(WALL - 0.18, abs=0.01)
+    assert state.clearance == pytest.approx(WALL - 0.17, abs=0.01)
     assert state.nearest.x == pytest.approx(WALL, abs=0.01)
     v, w, state = send(rospy, cmd, out, states, 0.3, 0.3)
     assert 0 < v < 0.3 and w / v == pytest.approx(1.0), "slowed as a whole: the same path"
@@ -128,6 +128,18 @@ def test_stops_into_a_wall_and_lets_the_robot_back_away_and_turn(monitor):
     v, w, state = send(rospy, cmd, out, states, 0.0, 1.0)
     assert (v, w, state.state) == (0.0, 1.0, "turn")
     assert out[-1] == (0.0, 1.0), "the output topic carries what ~state says"
+    # move_base keeps clear itself: the monitor only keeps it from touching (~input_stop_distances)
+    from std_msgs.msg import String
+
+    active = rospy.Publisher("/active_input", String, queue_size=1, latch=True)
+    try:
+        active.publish(String("move_base"))
+        wait_for(lambda: send(rospy, cmd, out, states, 0.3, 0.0)[2].state == "clear", 10,
+                 what="move_base's command passing")
+        active.publish(String("teleop"))
+        wait_for(lambda: send(rospy, cmd, out, states, 0.3, 0.0)[2].state == "slow", 10, what="teleop's slowed")
+    finally:
+        active.unregister()
 
 
 def test_a_silent_laser_stops_linear_motion_a_silent_kinect_is_reported(monitor):

@@ -21,7 +21,7 @@ from collision_monitor.monitor import (
 
 pytestmark = pytest.mark.unit
 
-CFG = MonitorConfig()  # circle 0.18 m, stop 0.05 m, decel 0.5, latency 0.2
+CFG = MonitorConfig(robot_radius=0.18, stop_distance=0.05)  # decel 0.5, latency 0.2
 
 
 def wall(x, y0=-1.0, y1=1.0, spacing=0.01):
@@ -118,7 +118,8 @@ def test_a_slow_command_is_checked_over_min_lookahead():
 
 
 def test_polygon_footprint():
-    nose = MonitorConfig(footprint=((-0.16, -0.16), (-0.16, 0.16), (0.19, 0.16), (0.24, 0.0), (0.19, -0.16)))
+    nose = MonitorConfig(stop_distance=0.05,
+                         footprint=((-0.16, -0.16), (-0.16, 0.16), (0.19, 0.16), (0.24, 0.0), (0.19, -0.16)))
     assert nose.reach == pytest.approx(math.hypot(0.19, 0.16))
     assert polygon_clearance(np.array([[0.3, 0.0], [0.0, 0.0], [0.0, 0.2]]), np.array(nose.footprint)) == \
         pytest.approx([0.06, -0.16, 0.04])

@@ -39,8 +39,8 @@ class MonitorConfig:
     """The rule's settings; units in brackets."""
 
     footprint: tuple = ()  # polygon [(x, y), ...] [m] in the base frame; () = circle of robot_radius
-    robot_radius: float = 0.18  # [m] footprint circle (the Create's 0.17 m body and a 1 cm padding)
-    stop_distance: float = 0.05  # [m] least clearance a motion may bring the footprint to
+    robot_radius: float = 0.17  # [m] footprint circle (the Create's body, 0.1696 m)
+    stop_distance: float = 0.06  # [m] least clearance a motion may bring the footprint to
     time_horizon: float = 1.5  # [s] how far ahead a command is followed, at its own speed
     min_lookahead: float = 0.15  # [m] path length checked however slow the command
     deceleration: float = 0.5  # [m/s^2] braking the speed limit counts on (the base brakes at 1.0)

@@ -7,6 +7,8 @@ ROS Parameters: PARAMS below (rendered in the README); ~sources entries: obstacl
 ROS Subscribers:
     cmd_vel_in (geometry_msgs/Twist): the multiplexer's output. A command with a NaN or infinite
         component is dropped with a throttled warning (velocity_filter keeps the previous one).
+    active_input (std_msgs/String, latched): the multiplexer's input in control (cmd_vel_mux's
+        ~active), for ~input_stop_distances.
     <topic of each source> (sensor_msgs/LaserScan): the obstacle sensors (config/sources.yaml:
         /scan, the Hokuyo; /kinect_scan, the Kinect's fake laser).
 
@@ -19,6 +21,7 @@ ROS Publishers:
         time to judge a command (p50 / p99).
 """
 
+import dataclasses
 import math
 import threading
 import time
@@ -28,6 +31,7 @@ import numpy as np
 import rospy
 import tf2_ros
 from geometry_msgs.msg import Twist
+from std_msgs.msg import String
 
 from collision_monitor.monitor import BLIND, CLEAR, SLOW, STOP, TURN, MonitorConfig, blind, decide
 from collision_monitor.msg import MonitorState
@@ -57,10 +61,15 @@ PARAMS = ParamTable(
     Param("base_frame", FRAME, "base_footprint", "the robot's frame (commands are in it)"),
     Param("footprint", list, [], "polygon [[x, y], ...] in the base frame; [] = a circle of ~robot_radius", unit="m",
           check=lambda v: _footprint_problem(v) if v else None),
-    Param("robot_radius", float, _D.robot_radius, "radius of the footprint circle (the Create's 0.17 m body and a 1 cm "
-          "padding)", unit="m", gt=0),
+    Param("robot_radius", float, _D.robot_radius, "radius of the footprint circle (the Create's body)", unit="m",
+          gt=0),
     Param("stop_distance", float, _D.stop_distance, "least distance a motion may bring the footprint to an obstacle",
           unit="m", gt=0),
+    Param("input_stop_distances", dict, {"move_base": 0.005}, "the stop distance of the multiplexer's inputs that "
+          "keep clear of obstacles themselves ({input name: m}): move_base plans on its costmaps and may pass a door "
+          "jamb a few mm away; the monitor only keeps it from touching", unit="m",
+          check=lambda v: next((f"{k}: {d!r} is not a distance > 0" for k, d in v.items()
+                                if isinstance(d, bool) or not isinstance(d, (int, float)) or not d > 0), None)),
     Param("time_horizon", float, _D.time_horizon, "how far ahead a command's motion is followed, at its own speed",
           unit="s", gt=0),
     Param("min_lookahead", float, _D.min_lookahead, "path length checked however slow the command", unit="m", ge=0),
@@ -71,7 +80,7 @@ PARAMS = ParamTable(
     Param("min_speed", float, _D.min_speed, "an allowed speed below this stops the linear motion", unit="m/s", ge=0),
     Param("recheck_window", float, 0.3, "on each scan, the last command, when younger than this, is judged again and "
           "sent again if it must slow down more (0: never)", unit="s", ge=0),
-    Param("tf_timeout", float, 0.1, "how long a scan waits for its transform before it is skipped", unit="s", ge=0,
+    Param("tf_timeout", float, 0.5, "how long a scan waits for its transform before it is skipped", unit="s", ge=0,
           le=2),
 )
 
@@ -90,6 +99,9 @@ class CollisionMonitorNode:
                                     robot_radius=p.robot_radius, stop_distance=p.stop_distance,
                                     time_horizon=p.time_horizon, min_lookahead=p.min_lookahead,
                                     deceleration=p.deceleration, latency=p.latency, min_speed=p.min_speed)
+        self.configs = {name: dataclasses.replace(self.config, stop_distance=float(d))
+                        for name, d in p.input_stop_distances.items()}
+        self.active_input = ""
         self.fixed_frame, self.base_frame = p.fixed_frame, p.base_frame
         self.recheck_window = p.recheck_window
         self.lock = threading.Lock()
@@ -106,10 +118,14 @@ class CollisionMonitorNode:
         self.diag.add("Collision monitor", self._diagnose)
         self.sources = ScanSources(specs, self.fixed_frame, self.tf_buffer, p.tf_timeout,
                                    on_scan=self._on_scan if self.recheck_window > 0 else None, log_prefix=LOG)
+        self.active_sub = rospy.Subscriber("active_input", String, self._on_active, queue_size=1)
         self.sub = rospy.Subscriber("cmd_vel_in", Twist, self.on_command, queue_size=10, tcp_nodelay=True)
         shape = (f"polygon of {len(p.footprint)} points" if p.footprint else f"circle of {p.robot_radius} m")
         rospy.loginfo(LOG + "footprint %s, stop distance %.3f m, horizon %.2f s, sources %s", shape, p.stop_distance,
                       p.time_horizon, ", ".join(f"{s.name} ({s.topic})" for s in specs))
+
+    def _on_active(self, msg):
+        self.active_input = msg.data
 
     # --- judging ---------------------------------------------------------------------------------
     def judge(self, v, w):
@@ -126,7 +142,7 @@ class CollisionMonitorNode:
         points, padding = self.sources.points()
         inv = np.linalg.inv(pose)
         local = points @ inv[:2, :3].T + inv[:2, 3]
-        decision = decide(local, v, w, self.config, padding)
+        decision = decide(local, v, w, self.configs.get(self.active_input, self.config), padding)
         return decision, self._reason(decision, stale)
 
     def _reason(self, d, stale):

@@ -24,7 +24,7 @@ class ScanSources:
     """``specs``: the parsed ~sources entries (obstacles.parse_sources); ``on_scan(name)`` is called
     after each scan taken (in the subscriber's thread)."""
 
-    def __init__(self, specs, fixed_frame, tf_buffer, tf_timeout=0.1, on_scan=None, log_prefix=""):
+    def __init__(self, specs, fixed_frame, tf_buffer, tf_timeout=0.5, on_scan=None, log_prefix=""):
         self.specs = {s.name: s for s in specs}
         self.fixed_frame = fixed_frame
         self.tf_buffer = tf_buffer
