@@ -60,3 +60,9 @@ def test_acquire_says_why_not():
     _, why = acquire(ids, xy, vel, 5.0, (5.0, 0.0), 0.5)
     assert "no tracked person within 0.50 m of (5.00, 0.00)" in why and "3.61 m" in why
     assert acquire([], [], [], 0.0, (0.0, 0.0), 1.0) == (None, "nobody is tracked")
+
+
+def test_another_sensors_sighting_confirms_them():
+    p = AttendedPerson(1, (1.0, 0.0), velocity=(0.2, 0.0), seen_at=0.0)
+    p.confirm((1.05, 0.02), 2.0)
+    assert p.xy == (1.05, 0.02) and p.unseen_for(2.5) == pytest.approx(0.5) and p.velocity == (0.2, 0.0)

@@ -121,7 +121,9 @@ def test_follows_a_person_ahead_and_retunes_and_cancel_stops_at_once(node):
     client.cancel_goal()
     wait_for(lambda: cmds[-1][0] > t_cancel and cmds[-1][1:] == (0.0, 0.0), 5, what="a zero command after cancel")
     first_zero = next(t for t, v, w in cmds if t > t_cancel and (v, w) == (0.0, 0.0))
-    assert first_zero - t_cancel < 0.2
+    # wall time, the cancel's round trip: the zero leaves from the preempt callback at once (the
+    # scenario test judges 0.2 s of simulated time)
+    assert first_zero - t_cancel < 0.5
     state, _, result = finish(client)
     assert state == GoalStatus.PREEMPTED
     assert (result.x, result.y) == pytest.approx((2.0, 0.0), abs=0.01)

@@ -17,6 +17,8 @@ monitor stopped it). Cancel or a new goal: a zero command at once, PREEMPTED.
 
 ROS Subscribers:
     tracked_users (user_tracker_ni/TrackedUsers): people with persistent ids and positions.
+    scan (sensor_msgs/LaserScan): the Hokuyo; close up, a leg pair where the person is confirms them
+        (user_tracker_ni.laser_legs, ~closeup_range).
     <topic of each source> (sensor_msgs/LaserScan): obstacles (/scan, /kinect_scan).
 
 ROS Publishers:
@@ -36,6 +38,7 @@ import tf2_ros
 from collision_monitor.obstacles import parse_sources
 from collision_monitor.sources import ScanSources
 from geometry_msgs.msg import PoseStamped, Twist
+from sensor_msgs.msg import LaserScan
 from std_msgs.msg import String
 
 from approach_me.cfg import ApproachMeConfig
@@ -43,12 +46,15 @@ from approach_me.control import DONE, GAINS, Approacher, Request
 from approach_me.msg import ApproachMeAction, ApproachMeFeedback, ApproachMeResult
 from florence_common import pose as pose2d
 from florence_common.params import FRAME, Param, ParamTable
+from florence_common.people import nearest
 from florence_common_ros.behaviour import Behaviour, aborted, succeeded
 from florence_common_ros.convert import pose_stamped
 from florence_common_ros.diagnostics import OK, WARN, Diagnostics
 from florence_common_ros.node import read_params, run
 from florence_common_ros.people import TrackedPeople
 from florence_common_ros.reconfigure import Reconfigure
+from florence_common_ros.transforms import lookup_matrix
+from user_tracker_ni import laser_legs
 from user_tracker_ni.msg import TrackedUsers
 
 LOG = "approach_me: "
@@ -79,6 +85,11 @@ PARAMS = ParamTable(
     Param("time_limit", float, 60.0, "a goal not reached in this long ends ABORTED", unit="s", gt=0),
     Param("reacquire_radius", float, 0.5, "a new track this near where the person was expected is taken for them",
           unit="m", gt=0),
+    Param("closeup_range", float, 1.5, "nearer than this, a pair of legs the laser sees (user_tracker_ni's leg "
+          "detector on scan) within ~closeup_radius of the person confirms them and their place (0: off)", unit="m",
+          ge=0),
+    Param("closeup_radius", float, 0.25, "how near the person's place a leg pair must be to confirm them", unit="m",
+          gt=0),
 )
 
 
@@ -101,10 +112,44 @@ class ApproachMeNode(Behaviour):
         self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
         self.people = TrackedPeople("tracked_users", TrackedUsers, self.tf_buffer, LOG)
         self.obstacles = ScanSources(specs, "odom", self.tf_buffer, log_prefix=LOG) if specs else None
+        self.leg_params = laser_legs.LegParams()
+        self.closeup = None  # (ROS time [s], leg pairs [P, 2] in the tracker's frame) of the last scan
+        self.closeup_confirmed = 0
+        if p.closeup_range > 0:
+            self.scan_sub = rospy.Subscriber("scan", LaserScan, self._on_scan, queue_size=1)
         self.diag = Diagnostics("approach_me")
         self.diag.add("ApproachMe", self._diagnose)
         self.reconfigure = Reconfigure(ApproachMeConfig, GAINS, self._on_gains, LOG)
         self.start()
+
+    def _on_scan(self, msg):
+        """Leg pairs in the laser's scan, in the tracker's frame (close-up confirmation of the person)."""
+        frame = self.frame
+        if frame is None or not msg.header.frame_id:
+            return
+        m, why = lookup_matrix(self.tf_buffer, frame, msg.header.frame_id.lstrip("/"), msg.header.stamp, 0.3)
+        if m is None:
+            rospy.logdebug(LOG + "scan skipped: %s", why)
+            return
+        xy, valid = laser_legs.scan_points(msg.ranges, msg.angle_min, msg.angle_increment, msg.range_min,
+                                           msg.range_max, m)
+        legs = laser_legs.find_legs(xy, valid, m[:2, 3], self.leg_params)
+        self.closeup = (rospy.get_time(), laser_legs.pair_legs(legs, self.leg_params))
+
+    def _confirm_closeup(self, person, robot, now):
+        """The tracker may lose a standing person close up (the Kinect sees no upper body nearer than
+        about 1.1 m, and its laser track may hold one leg): a leg pair the laser sees where they are
+        confirms them and their place."""
+        p = self.params
+        if self.closeup is None or math.dist(robot[:2], person.xy) > p.closeup_range:
+            return
+        t, pairs = self.closeup
+        if now - t > 0.5 or not len(pairs):
+            return
+        k, _ = nearest(pairs, person.xy, p.closeup_radius)
+        if k is not None:
+            person.confirm(pairs[k], t)
+            self.closeup_confirmed += 1
 
     def _on_gains(self, gains):
         with self.lock:
@@ -189,14 +234,15 @@ class ApproachMeNode(Behaviour):
             if snap is not None and snap.received > self.snap_seen and snap.frame == self.frame:
                 self.snap_seen = snap.received
                 person.update(snap.ids, snap.xy, snap.velocities, snap.stamp)
-        ending = self._ending(person, now)
-        if ending is not None:
-            return ending
         robot, why = self.people.robot_pose(self.frame, p.base_frame)
         if robot is None:
             self._publish(0.0, 0.0)
             rospy.logwarn_throttle(5.0, LOG + "stopped: %s", why)
             return None
+        self._confirm_closeup(person, robot, now)
+        ending = self._ending(person, now)
+        if ending is not None:
+            return ending
         out = approacher.step(robot, person.xy)
         self.last_step = (out, robot, person.xy)
         self.server.publish_feedback(ApproachMeFeedback(*self._local(robot, person.xy)))
@@ -270,6 +316,7 @@ class ApproachMeNode(Behaviour):
             stat.add("phase", out.phase)
             stat.add("position error (m)", f"{out.position_error:.3f}")
             stat.add("heading error (rad)", f"{out.heading_error:.3f}")
+        stat.add("close-up confirmations by the laser's legs", self.closeup_confirmed)
         if self.obstacles is not None:
             stat.add("obstacle sources", ", ".join(f"{n} {a:.1f} s ago"
                                                    for n, a in self.obstacles.ages(rospy.get_time()).items()))

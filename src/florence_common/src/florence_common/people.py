@@ -79,6 +79,12 @@ class AttendedPerson:
     def unseen_for(self, t):
         return max(t - self.seen_at, 0.0)
 
+    def confirm(self, xy, t):
+        """Another sensor's sighting of this person at ``xy`` at ``t`` [s] (a leg pair close up): their
+        place, seen now; the velocity is kept."""
+        self.xy = (float(xy[0]), float(xy[1]))
+        self.seen_at = max(self.seen_at, t)
+
     def update(self, ids, xy, velocities, t):
         """A tracker report at ``t`` [s]: ids [N], positions [N, 2], velocities [N, 2] (NaN rows are
         skipped). Returns True when the person is in it (under their id or a new one taken for them)."""
