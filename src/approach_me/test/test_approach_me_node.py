@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from florence_common.processes import rosrun, stop_all, wait_for
+from florence_harness.behaviours import assert_refused_at_once, finish
 
 pytestmark = pytest.mark.ros
 
@@ -100,16 +101,7 @@ def goal(x=1.5, y=0.0, distance=0.0, p2r=0.0, r2p=0.0, speed=0.0, turn=0.0):
                           desired_r2p_orientation=r2p, max_lin_speed=speed, max_ang_speed=turn)
 
 
-def finish(client, timeout=10.0):
-    import rospy
-
-    assert client.wait_for_result(rospy.Duration(timeout)), "no result"
-    return client.get_state(), client.get_goal_status_text(), client.get_result()
-
-
 def test_bad_goals_nobody_near_and_a_pose_in_a_wall_are_aborted_at_once(node):
-    from actionlib_msgs.msg import GoalStatus
-
     client, *_ = node
     cases = [(goal(x=math.nan), "x = nan"), (goal(distance=-0.5), "desired_distance = -0.5"),
              (goal(p2r=math.inf), "desired_p2r_orientation = inf"), (goal(turn=-1.0), "max_ang_speed = -1.0"),
@@ -117,12 +109,7 @@ def test_bad_goals_nobody_near_and_a_pose_in_a_wall_are_aborted_at_once(node):
              (goal(x=-2.0), "no tracked person within 0.60 m"),
              # behind the person, 0.7 m: in the wall 0.7 m beyond them
              (goal(distance=0.7, p2r=math.pi), "inside an obstacle")]
-    for g, reason in cases:
-        start = time.monotonic()
-        client.send_goal(g)
-        state, text, _ = finish(client)
-        assert state == GoalStatus.ABORTED and reason in text, (reason, text)
-        assert time.monotonic() - start < 2.0, f"{reason}: not at once"
+    assert_refused_at_once(client, cases)
 
 
 def test_drives_gives_feedback_and_cancel_stops_at_once(node):

@@ -10,6 +10,7 @@ import time
 import pytest
 
 from florence_common.processes import rosrun, stop_all, wait_for
+from florence_harness.behaviours import assert_refused_at_once, finish
 
 pytestmark = pytest.mark.ros
 
@@ -80,25 +81,13 @@ def goal(x, y, speed=0.0, turn=0.0, distance=0.0):
     return FollowMeGoal(x=x, y=y, max_lin_speed=speed, max_ang_speed=turn, desired_follow_distance=distance)
 
 
-def finish(client, timeout=10.0):
-    assert client.wait_for_result(__import__("rospy").Duration(timeout)), "no result"
-    return client.get_state(), client.get_goal_status_text(), client.get_result()
-
-
 def test_bad_goals_and_nobody_near_are_aborted_with_a_reason(node):
-    from actionlib_msgs.msg import GoalStatus
-
     client, *_ = node
     cases = [(goal(math.nan, 0.0), "x = nan"), (goal(2.0, 0.0, speed=-0.1), "max_lin_speed = -0.1"),
              (goal(2.0, 0.0, distance=math.inf), "desired_follow_distance = inf"),
              (goal(0.05, 0.0), "the robot's own position"), (goal(2.0, 0.0, distance=0.3), "below the robot's radius"),
              (goal(-3.0, 0.0), "no tracked person within 0.60 m")]
-    for g, reason in cases:
-        start = time.monotonic()
-        client.send_goal(g)
-        state, text, _ = finish(client)
-        assert state == GoalStatus.ABORTED and reason in text, (reason, text)
-        assert time.monotonic() - start < 2.0, f"{reason}: not at once"
+    assert_refused_at_once(client, cases)
 
 
 def test_follows_a_person_ahead_and_retunes_and_cancel_stops_at_once(node):

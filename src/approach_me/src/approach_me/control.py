@@ -21,6 +21,8 @@ than twice ``xy_tolerance`` away sends the robot back to phase 1.
 import math
 from dataclasses import dataclass
 
+from velocity_filter.limiter import clamp, step_towards
+
 from approach_me import geometry
 from florence_common import pose as pose2d
 from florence_common.angles import diff
@@ -67,14 +69,6 @@ class Step:
     text: str
 
 
-def _limit(value, previous, change):
-    return previous + max(-change, min(change, value - previous))
-
-
-def _clamp(value, limit):
-    return max(-limit, min(limit, value))
-
-
 class Approacher:
     """The controller of one goal: ``person0`` and ``robot0`` (x, y) at goal time fix the approach
     direction."""
@@ -96,8 +90,8 @@ class Approacher:
 
     def _command(self, v, w):
         g, r = self.gains, self.request
-        self.v = _limit(_clamp(v, r.max_lin_speed), self.v, g.max_lin_acc * self.dt)
-        self.w = _limit(_clamp(w, r.max_ang_speed), self.w, g.max_ang_acc * self.dt)
+        self.v = step_towards(self.v, clamp(v, r.max_lin_speed), g.max_lin_acc * self.dt)
+        self.w = step_towards(self.w, clamp(w, r.max_ang_speed), g.max_ang_acc * self.dt)
         return self.v, self.w
 
     def step(self, robot, person):

@@ -30,16 +30,13 @@ ROS Publishers:
 """
 
 import math
-import threading
 
 import numpy as np
 import rospy
-import tf2_ros
 from collision_monitor.obstacles import parse_sources
 from collision_monitor.sources import ScanSources
-from geometry_msgs.msg import PoseStamped, Twist
+from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import LaserScan
-from std_msgs.msg import String
 
 from approach_me.cfg import ApproachMeConfig
 from approach_me.control import DONE, GAINS, Approacher, Request
@@ -47,12 +44,10 @@ from approach_me.msg import ApproachMeAction, ApproachMeFeedback, ApproachMeResu
 from florence_common import pose as pose2d
 from florence_common.params import FRAME, Param, ParamTable
 from florence_common.people import nearest
-from florence_common_ros.behaviour import Behaviour, aborted, succeeded
+from florence_common_ros.behaviour import aborted, succeeded
 from florence_common_ros.convert import pose_stamped
-from florence_common_ros.diagnostics import OK, WARN, Diagnostics
 from florence_common_ros.node import read_params, run
-from florence_common_ros.people import TrackedPeople
-from florence_common_ros.reconfigure import Reconfigure
+from florence_common_ros.people import PersonBehaviour
 from florence_common_ros.transforms import lookup_matrix
 from user_tracker_ni import laser_legs
 from user_tracker_ni.msg import TrackedUsers
@@ -93,33 +88,20 @@ PARAMS = ParamTable(
 )
 
 
-class ApproachMeNode(Behaviour):
+class ApproachMeNode(PersonBehaviour):
     def __init__(self):
-        p = self.params = read_params(PARAMS)
+        p = read_params(PARAMS)
         specs = parse_sources(p.sources) if p.sources is not None else []
-        super().__init__("approach_me", ApproachMeAction, p.rate)
-        self.lock = threading.Lock()
-        self.gains = read_params(GAINS)
-        self.person = self.approacher = self.last_step = None
-        self.frame = None
-        self.snap_seen = -math.inf
-        self.commanding = False
-        self.cmd = rospy.Publisher("cmd_vel", Twist, queue_size=1)
-        self.state_pub = rospy.Publisher("~state", String, queue_size=1, latch=True)
-        self.state_pub.publish(String("idle"))
+        super().__init__("approach_me", ApproachMeAction, p, GAINS, ApproachMeConfig, TrackedUsers, "ApproachMe",
+                         LOG)
+        self.last_step = None  # (Step, robot pose, person xy) of the last control cycle
         self.goal_pub = rospy.Publisher("~goal_pose", PoseStamped, queue_size=1, latch=True)
-        self.tf_buffer = tf2_ros.Buffer()
-        self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
-        self.people = TrackedPeople("tracked_users", TrackedUsers, self.tf_buffer, LOG)
         self.obstacles = ScanSources(specs, "odom", self.tf_buffer, log_prefix=LOG) if specs else None
         self.leg_params = laser_legs.LegParams()
         self.closeup = None  # (ROS time [s], leg pairs [P, 2] in the tracker's frame) of the last scan
         self.closeup_confirmed = 0
         if p.closeup_range > 0:
             self.scan_sub = rospy.Subscriber("scan", LaserScan, self._on_scan, queue_size=1)
-        self.diag = Diagnostics("approach_me")
-        self.diag.add("ApproachMe", self._diagnose)
-        self.reconfigure = Reconfigure(ApproachMeConfig, GAINS, self._on_gains, LOG)
         self.start()
 
     def _on_scan(self, msg):
@@ -151,35 +133,22 @@ class ApproachMeNode(Behaviour):
             person.confirm(pairs[k], t)
             self.closeup_confirmed += 1
 
-    def _on_gains(self, gains):
-        with self.lock:
-            self.gains = gains
-            if self.approacher is not None:
-                self.approacher.gains = gains
-
     # --- the goal ----------------------------------------------------------------------------------
     def request(self, goal):
         """(Request, None) after defaults, or (None, why the goal is refused)."""
         p = self.params
-        fields = {"x": goal.x, "y": goal.y, "desired_distance": goal.desired_distance,
-                  "desired_p2r_orientation": goal.desired_p2r_orientation,
-                  "desired_r2p_orientation": goal.desired_r2p_orientation, "max_lin_speed": goal.max_lin_speed,
-                  "max_ang_speed": goal.max_ang_speed}
-        bad = [f"{k} = {v}" for k, v in fields.items() if not math.isfinite(v)]
-        bad += [f"{k} = {v} (must be >= 0)" for k in ("desired_distance", "max_lin_speed", "max_ang_speed")
-                if (v := fields[k]) < 0]
-        if bad:
-            return None, "bad goal: " + ", ".join(bad)
-        if math.hypot(goal.x, goal.y) < p.robot_radius:
-            return None, (f"bad goal: (x, y) = ({goal.x:.2f}, {goal.y:.2f}) is the robot's own position, not a "
-                          "person's")
+        why = self.check_goal(goal, ("x", "y", "desired_distance", "desired_p2r_orientation",
+                                     "desired_r2p_orientation", "max_lin_speed", "max_ang_speed"),
+                              ("desired_distance", "max_lin_speed", "max_ang_speed"))
+        if why:
+            return None, why
         req = Request(goal.desired_distance or p.default_distance, goal.desired_p2r_orientation,
                       goal.desired_r2p_orientation, min(goal.max_lin_speed or p.default_max_lin_speed, 0.5),
                       goal.max_ang_speed or p.default_max_ang_speed)
-        nearest = p.robot_radius + p.person_radius
-        if req.distance < nearest:
+        nearest_ok = p.robot_radius + p.person_radius
+        if req.distance < nearest_ok:
             return None, (f"bad goal: desired_distance {req.distance:.2f} m is below the robot's radius plus a "
-                          f"person's ({nearest:.2f} m)")
+                          f"person's ({nearest_ok:.2f} m)")
         return req, None
 
     def begin(self, goal):
@@ -187,23 +156,21 @@ class ApproachMeNode(Behaviour):
         req, why = self.request(goal)
         if why:
             return why
-        person, snap, robot, why = self.people.attend((goal.x, goal.y), p.base_frame, p.acquire_radius,
-                                                      p.tracker_timeout, p.acquire_wait,
-                                                      reacquire_radius=p.reacquire_radius, max_extrapolation=0.3)
-        if person is None:
-            return why
-        approacher = Approacher(self.gains, req, person.xy, robot[:2], p.rate, p.xy_tolerance, p.yaw_tolerance)
-        why = self._blocked(snap.frame, approacher.goal(person.xy))
+
+        def make(person, robot, frame):
+            approacher = Approacher(self.gains, req, person.xy, robot[:2], p.rate, p.xy_tolerance, p.yaw_tolerance)
+            return self._blocked(frame, approacher.goal(person.xy)) or approacher
+
+        why = self.attend(goal, make, max_extrapolation=0.3)
         if why:
             return why
         with self.lock:
-            self.frame, self.person, self.approacher, self.snap_seen = snap.frame, person, approacher, snap.received
-            self.person0 = person.xy
+            self.person0 = self.person.xy
             self.started = rospy.get_time()
             self.progress = (math.inf, self.started)  # (least distance left [m], when)
-            self.commanding = True
+            self.last_step = None
         rospy.loginfo(LOG + "approaching person %d at (%.2f, %.2f) in %s: %.2f m, p2r %.2f rad, r2p %.2f rad",
-                      person.pid, person.xy[0], person.xy[1], snap.frame, req.distance, req.p2r, req.r2p)
+                      self.person.pid, *self.person.xy, self.frame, req.distance, req.p2r, req.r2p)
         return None
 
     def _blocked(self, frame, goal_xy):
@@ -228,27 +195,19 @@ class ApproachMeNode(Behaviour):
     def step(self, goal):
         p = self.params
         now = rospy.get_time()
-        snap = self.people.latest()
-        with self.lock:
-            person, approacher = self.person, self.approacher
-            if snap is not None and snap.received > self.snap_seen and snap.frame == self.frame:
-                self.snap_seen = snap.received
-                person.update(snap.ids, snap.xy, snap.velocities, snap.stamp)
-        robot, why = self.people.robot_pose(self.frame, p.base_frame)
+        person = self.take_reports()
+        robot = self.robot_pose()
         if robot is None:
-            self._publish(0.0, 0.0)
-            rospy.logwarn_throttle(5.0, LOG + "stopped: %s", why)
             return None
         self._confirm_closeup(person, robot, now)
         ending = self._ending(person, now)
         if ending is not None:
             return ending
-        out = approacher.step(robot, person.xy)
+        out = self.controller.step(robot, person.xy)
         self.last_step = (out, robot, person.xy)
-        self.server.publish_feedback(ApproachMeFeedback(*self._local(robot, person.xy)))
-        self.state_pub.publish(String(out.text))
+        self.server.publish_feedback(ApproachMeFeedback(*self.local(robot, person.xy)))
         if out.phase == DONE:
-            self._publish(0.0, 0.0)
+            self.drive(0.0, 0.0, out.text)
             return succeeded(f"reached: {out.position_error:.3f} m from the position, {abs(out.heading_error):.3f} "
                              "rad from the heading", self.result())
         left, since = self.progress
@@ -257,7 +216,7 @@ class ApproachMeNode(Behaviour):
         elif now - since > p.stuck_timeout:
             return aborted(f"the pose cannot be reached: no progress for {p.stuck_timeout:.0f} s, "
                            f"{out.position_error:.2f} m from it (blocked by an obstacle?)", self.result())
-        self._publish(out.v, out.w)
+        self.drive(out.v, out.w, out.text)
         self.goal_pub.publish(pose_stamped(*out.goal, self.frame, rospy.Time.now()))
         return None
 
@@ -274,45 +233,15 @@ class ApproachMeNode(Behaviour):
             return aborted(f"the pose was not reached in {p.time_limit:.0f} s", self.result())
         return None
 
-    @staticmethod
-    def _local(robot, xy):
-        x, y = pose2d.transform_points(pose2d.inverse(robot), [xy])[0]
-        return float(x), float(y)
-
-    def _publish(self, v, w):
-        msg = Twist()
-        msg.linear.x, msg.angular.z = v, w
-        self.cmd.publish(msg)
-
     def result(self):
         if self.last_step is None:
             return ApproachMeResult()
         _, robot, xy = self.last_step
-        return ApproachMeResult(*self._local(robot, xy))
+        return ApproachMeResult(*self.local(robot, xy))
 
-    def halt(self):
-        with self.lock:
-            was, self.commanding = self.commanding, False
-            if self.approacher is not None:
-                self.approacher.stop()
-        if was:
-            self._publish(0.0, 0.0)
-            self.state_pub.publish(String("idle"))
-
-    # --- diagnostics -------------------------------------------------------------------------------
-    def _diagnose(self, stat):
-        with self.lock:
-            person, last, active = self.person, self.last_step, self.commanding
-        snap = self.people.latest()
-        age = rospy.get_time() - snap.received if snap is not None else math.inf
-        level = OK if age <= self.params.tracker_timeout else WARN
-        stat.summary(level, last[0].text if active and last is not None else "idle")
-        stat.add("tracked_users", f"{age:.2f} s ago, {self.people.received} received, {self.people.skipped} skipped"
-                 if snap is not None else self.people.problem)
-        if person is not None:
-            stat.add("person", f"{person.pid} (ids {sorted(person.own_ids)})")
-        if last is not None:
-            out = last[0]
+    def diagnose(self, stat):
+        if self.last_step is not None:
+            out = self.last_step[0]
             stat.add("phase", out.phase)
             stat.add("position error (m)", f"{out.position_error:.3f}")
             stat.add("heading error (rad)", f"{out.heading_error:.3f}")
@@ -320,8 +249,6 @@ class ApproachMeNode(Behaviour):
         if self.obstacles is not None:
             stat.add("obstacle sources", ", ".join(f"{n} {a:.1f} s ago"
                                                    for n, a in self.obstacles.ages(rospy.get_time()).items()))
-        stat.add("gains", ", ".join(f"{k} {v}" for k, v in self.gains.items()))
-        return stat
 
 
 def main():

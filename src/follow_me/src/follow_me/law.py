@@ -28,6 +28,7 @@ from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
+from velocity_filter.limiter import clamp, step_towards
 
 from florence_common import pose as pose2d
 from florence_common.angles import diff
@@ -81,14 +82,6 @@ class Step:
     text: str
 
 
-def rate_limit(value, previous, max_change):
-    return previous + max(-max_change, min(max_change, value - previous))
-
-
-def clamp(value, limit):
-    return max(-limit, min(limit, value))
-
-
 class Follower:
     """The controller of one goal. ``gains``: GAINS values (replace :attr:`gains` to retune live);
     ``rate`` [Hz] of :meth:`step`; ``lost_grace`` and ``lost_timeout`` [s]."""
@@ -132,8 +125,8 @@ class Follower:
         g = self.gains
         v = clamp(v, self.limits.max_lin_speed)
         w = clamp(w, self.limits.max_ang_speed)
-        self.v = rate_limit(v, self.v, g.max_lin_acc * self.dt)
-        self.w = rate_limit(w, self.w, g.max_ang_acc * self.dt)
+        self.v = step_towards(self.v, v, g.max_lin_acc * self.dt)
+        self.w = step_towards(self.w, w, g.max_ang_acc * self.dt)
         return self.v, self.w
 
     def step(self, t, robot, person):

@@ -22,20 +22,12 @@ ROS Publishers:
     /diagnostics: the goal, the person, the tracker's input.
 """
 
-import math
-import threading
-
 import rospy
-import tf2_ros
-from geometry_msgs.msg import Twist
-from std_msgs.msg import String
 
 from florence_common.params import FRAME, Param, ParamTable
-from florence_common_ros.behaviour import Behaviour, aborted
-from florence_common_ros.diagnostics import OK, WARN, Diagnostics
+from florence_common_ros.behaviour import aborted
 from florence_common_ros.node import read_params, run
-from florence_common_ros.people import TrackedPeople
-from florence_common_ros.reconfigure import Reconfigure
+from florence_common_ros.people import PersonBehaviour
 from follow_me.cfg import FollowMeConfig
 from follow_me.law import GAINS, Follower, Limits
 from follow_me.msg import FollowMeAction, FollowMeFeedback, FollowMeResult
@@ -65,48 +57,21 @@ PARAMS = ParamTable(
 )
 
 
-class FollowMeNode(Behaviour):
+class FollowMeNode(PersonBehaviour):
     def __init__(self):
-        p = self.params = read_params(PARAMS)
-        super().__init__("follow_me", FollowMeAction, p.rate)
-        self.lock = threading.Lock()
-        self.gains = read_params(GAINS)
-        self.person = self.follower = None
-        self.frame = None  # the tracker's frame the goal runs in
-        self.snap_seen = -math.inf  # [s] arrival of the last tracker message taken
-        self.commanding = False
+        super().__init__("follow_me", FollowMeAction, read_params(PARAMS), GAINS, FollowMeConfig, TrackedUsers,
+                         "FollowMe", LOG)
         self.last_step = None
-        self.last_end = "no goal yet"
-        self.cmd = rospy.Publisher("cmd_vel", Twist, queue_size=1)
-        self.state_pub = rospy.Publisher("~state", String, queue_size=1, latch=True)
-        self.state_pub.publish(String("idle"))
-        self.tf_buffer = tf2_ros.Buffer()
-        self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
-        self.people = TrackedPeople("tracked_users", TrackedUsers, self.tf_buffer, LOG)
-        self.diag = Diagnostics("follow_me")
-        self.diag.add("FollowMe", self._diagnose)
-        self.reconfigure = Reconfigure(FollowMeConfig, GAINS, self._on_gains, LOG)
         self.start()
-
-    def _on_gains(self, gains):
-        with self.lock:
-            self.gains = gains
-            if self.follower is not None:
-                self.follower.gains = gains
 
     # --- the goal ----------------------------------------------------------------------------------
     def limits(self, goal):
         """(Limits, None) after defaults, or (None, why the goal is refused)."""
         p = self.params
-        fields = {"x": goal.x, "y": goal.y, "max_lin_speed": goal.max_lin_speed,
-                  "max_ang_speed": goal.max_ang_speed, "desired_follow_distance": goal.desired_follow_distance}
-        bad = [f"{k} = {v}" for k, v in fields.items() if not math.isfinite(v)]
-        bad += [f"{k} = {v} (must be >= 0)" for k, v in list(fields.items())[2:] if v < 0]
-        if bad:
-            return None, "bad goal: " + ", ".join(bad)
-        if math.hypot(goal.x, goal.y) < p.robot_radius:
-            return None, (f"bad goal: (x, y) = ({goal.x:.2f}, {goal.y:.2f}) is the robot's own position, not a "
-                          "person's")
+        why = self.check_goal(goal, ("x", "y", "max_lin_speed", "max_ang_speed", "desired_follow_distance"),
+                              ("max_lin_speed", "max_ang_speed", "desired_follow_distance"))
+        if why:
+            return None, why
         limits = Limits(min(goal.max_lin_speed or p.default_max_lin_speed, p.default_max_lin_speed),
                         goal.max_ang_speed or p.default_max_ang_speed,
                         goal.desired_follow_distance or p.default_follow_distance)
@@ -121,79 +86,39 @@ class FollowMeNode(Behaviour):
         limits, why = self.limits(goal)
         if why:
             return why
-        person, snap, _, why = self.people.attend((goal.x, goal.y), p.base_frame, p.acquire_radius,
-                                                  p.tracker_timeout, p.acquire_wait,
-                                                  reacquire_radius=p.reacquire_radius)
-        if person is None:
+        why = self.attend(goal, lambda person, robot, frame: Follower(self.gains, limits, p.rate, p.lost_grace,
+                                                                       p.lost_timeout))
+        if why:
             return why
-        with self.lock:
-            self.frame, self.person, self.snap_seen = snap.frame, person, snap.received
-            self.follower = Follower(self.gains, limits, p.rate, p.lost_grace, p.lost_timeout)
-            self.commanding = True
-        rospy.loginfo(LOG + "following person %d at (%.2f, %.2f) in %s; %.2f m/s, %.2f rad/s, %.2f m", person.pid,
-                      person.xy[0], person.xy[1], snap.frame, limits.max_lin_speed, limits.max_ang_speed,
+        self.last_step = None
+        rospy.loginfo(LOG + "following person %d at (%.2f, %.2f) in %s; %.2f m/s, %.2f rad/s, %.2f m",
+                      self.person.pid, *self.person.xy, self.frame, limits.max_lin_speed, limits.max_ang_speed,
                       limits.desired_distance)
         return None
 
     def step(self, goal):
-        p = self.params
-        snap = self.people.latest()
-        with self.lock:
-            person, follower = self.person, self.follower
-            if snap is not None and snap.received > self.snap_seen and snap.frame == self.frame:
-                self.snap_seen = snap.received
-                person.update(snap.ids, snap.xy, snap.velocities, snap.stamp)
-        robot, why = self.people.robot_pose(self.frame, p.base_frame)
+        person = self.take_reports()
+        robot = self.robot_pose()
         if robot is None:
-            self._publish(0.0, 0.0)
-            rospy.logwarn_throttle(5.0, LOG + "stopped: %s", why)
             return None
         # the tracker's stamp and the robot's clock are one ROS time
-        out = follower.step(rospy.get_time(), robot, person)
-        if follower.lost:
-            return aborted(f"person lost: {person.pid} unseen for {person.unseen_for(rospy.get_time()):.1f} s "
+        now = rospy.get_time()
+        out = self.controller.step(now, robot, person)
+        if self.controller.lost:
+            return aborted(f"person lost: {person.pid} unseen for {person.unseen_for(now):.1f} s "
                            f"(searched where they were last seen)", self.result())
-        self._publish(out.v, out.w)
-        self.server.publish_feedback(FollowMeFeedback(*out.person))
         self.last_step = out
-        self.state_pub.publish(String(out.text))
+        self.drive(out.v, out.w, out.text)
+        self.server.publish_feedback(FollowMeFeedback(*out.person))
         return None
-
-    def _publish(self, v, w):
-        msg = Twist()
-        msg.linear.x, msg.angular.z = v, w
-        self.cmd.publish(msg)
 
     def result(self):
         out = self.last_step
         return FollowMeResult(*out.person) if out is not None else FollowMeResult()
 
-    def halt(self):
-        with self.lock:
-            was, self.commanding = self.commanding, False
-            if self.follower is not None:
-                self.follower.stop()
-        if was:
-            self._publish(0.0, 0.0)
-            self.state_pub.publish(String("idle"))
-
-    # --- diagnostics -------------------------------------------------------------------------------
-    def _diagnose(self, stat):
-        with self.lock:
-            person, out, active = self.person, self.last_step, self.commanding
-        snap = self.people.latest()
-        age = rospy.get_time() - snap.received if snap is not None else math.inf
-        level = OK if age <= self.params.tracker_timeout else WARN
-        stat.summary(level, out.text if active and out is not None else "idle")
-        stat.add("tracked_users", f"{age:.2f} s ago, {self.people.received} received, {self.people.skipped} skipped"
-                 if snap is not None else self.people.problem)
-        if person is not None:
-            stat.add("person", f"{person.pid} (ids {sorted(person.own_ids)})")
-        if out is not None:
-            stat.add("distance (m)", f"{out.distance:.2f}")
-            stat.add("command (m/s, rad/s)", f"{out.v:.2f}, {out.w:.2f}")
-        stat.add("gains", ", ".join(f"{k} {v}" for k, v in self.gains.items()))
-        return stat
+    def diagnose(self, stat):
+        if self.last_step is not None:
+            stat.add("distance (m)", f"{self.last_step.distance:.2f}")
 
 
 def main():
