@@ -90,6 +90,27 @@ def matrix_to_transform_msg(m):
     return t
 
 
+# --- people ------------------------------------------------------------------------------------------
+def tracked_users(msg):
+    """(persistent ids [N] int, positions [N, 2], velocities [N, 2]) [m, m/s] of a
+    user_tracker_ni/TrackedUsers, in its ``frame_id`` (read by field: the class is not imported
+    here). ValueError when it carries no positions for its users (the seed's three fields only) or
+    lists of other lengths; velocities that are missing are zeros."""
+    ids = np.asarray(msg.user_ids, dtype=int)
+    positions = getattr(msg, "positions", None)
+    if positions is None or len(positions) != len(ids):
+        raise ValueError(f"{len(ids)} users with {0 if positions is None else len(positions)} positions")
+    xy = np.array([(p.x, p.y) for p in positions], dtype=float).reshape(-1, 2)
+    velocities = getattr(msg, "velocities", None) or []
+    if len(velocities) == len(ids):
+        vxy = np.array([(v.x, v.y) for v in velocities], dtype=float).reshape(-1, 2)
+    elif not velocities:
+        vxy = np.zeros_like(xy)
+    else:
+        raise ValueError(f"{len(ids)} users with {len(velocities)} velocities")
+    return ids, xy, vxy
+
+
 # --- images ----------------------------------------------------------------------------------------------
 _bridge = None
 

@@ -1,0 +1,162 @@
+"""The robot enablers judged against florence_sim's ground truth (ROS-free): following (distance to
+the person, whether the right person was kept), approaching (the final pose against the pose the
+goal asked for), and the collision monitor's added latency.
+
+Logs are as florence_eval.enablers_session records them, in simulated time: the robot's true pose
+rows (t, x, y, yaw), a person's true rows (t, x, y), the enabler's feedback rows (t, x, y) in the
+robot frame, its state rows (t, text), commands (t, wall time, v, w).
+"""
+
+import math
+
+import numpy as np
+
+from approach_me import geometry
+from florence_common import angles
+from florence_common import pose as pose2d
+
+PERSONAL_SPACE = 0.45  # [m] centre to centre: the edge of the intimate zone (Hall)
+KEPT_RADIUS = 0.5  # [m] the followed position within this of the true person: the right person
+
+
+def _at(rows, t):
+    """The row of ``rows`` (time first, sorted) last at or before each ``t`` (index array; -1: none)."""
+    return np.searchsorted(rows[:, 0], t, side="right") - 1
+
+
+def following(robot, person, feedback, states, desired, since, until):
+    """Following, judged over [since, until] [s] on the robot's true pose samples: the centre
+    distance's error to ``desired`` [m] (RMS, largest), the least distance, and the share of the
+    time the right person was kept (follow_me's state says "following" and its latest feedback,
+    placed through the true pose, is within KEPT_RADIUS of the true person)."""
+    robot = np.asarray(robot, dtype=float).reshape(-1, 4)
+    robot = robot[(robot[:, 0] >= since) & (robot[:, 0] <= until)]
+    person = np.asarray(person, dtype=float).reshape(-1, 3)
+    if len(robot) < 2 or len(person) < 2:
+        return {"samples": 0}
+    t = robot[:, 0]
+    px = np.interp(t, person[:, 0], person[:, 1])
+    py = np.interp(t, person[:, 0], person[:, 2])
+    d = np.hypot(px - robot[:, 1], py - robot[:, 2])
+    err = d - desired
+    kept = np.zeros(len(t), dtype=bool)
+    fb = np.asarray(feedback, dtype=float).reshape(-1, 3)
+    st_t = np.array([s[0] for s in states])
+    if len(fb) and len(st_t):
+        i_fb, i_st = _at(fb, t), np.searchsorted(st_t, t, side="right") - 1
+        for k in np.flatnonzero((i_fb >= 0) & (i_st >= 0)):
+            if not states[i_st[k]][1].startswith("following") or t[k] - fb[i_fb[k], 0] > 0.5:
+                continue
+            seen = pose2d.transform_points(robot[k, 1:4], [fb[i_fb[k], 1:3]])[0]
+            kept[k] = math.hypot(seen[0] - px[k], seen[1] - py[k]) <= KEPT_RADIUS
+    return {
+        "samples": len(t),
+        "seconds": float(t[-1] - t[0]),
+        "rms_error_m": float(np.sqrt(np.mean(err ** 2))),
+        "max_error_m": float(np.max(np.abs(err))),
+        "mean_distance_m": float(np.mean(d)),
+        "min_distance_m": float(np.min(d)),
+        "kept_fraction": float(np.mean(kept)),
+    }
+
+
+def approach_target(person, robot0, distance, p2r):
+    """(x, y) of the position the goal asks for, from the person's and the robot's true positions at
+    goal time (approach_me.geometry: the product's own definition)."""
+    direction = geometry.approach_direction(person, robot0, p2r)
+    return geometry.goal_position(person, direction, distance)
+
+
+def approach_errors(final_pose, person, robot0, person_final, distance, p2r, r2p):
+    """(position error [m], heading error [rad]) of the robot's true ``final_pose`` (x, y, yaw)
+    against the goal, all true positions: the approach direction from the person's place ``person``
+    and the robot's ``robot0`` at goal time, the position from the person's place at the end
+    (``person_final``: the same for a person who stood), the heading relative to the line to them."""
+    direction = geometry.approach_direction(person, robot0, p2r)
+    gx, gy = geometry.goal_position(person_final, direction, distance)
+    yaw = geometry.final_heading(final_pose[:2], person_final, r2p)
+    return math.hypot(final_pose[0] - gx, final_pose[1] - gy), abs(angles.diff(yaw, final_pose[2]))
+
+
+def latency(inputs, outputs, window=0.05):
+    """The monitor's added latency [s wall]: for each command into it (``inputs``, rows (t, wall, v,
+    w)), the first command out of it (``outputs``) within ``window`` s after it. Returns the delays."""
+    out_wall = np.array([r[1] for r in outputs])
+    delays = []
+    for r in inputs:
+        k = np.searchsorted(out_wall, r[1])
+        if k < len(out_wall) and out_wall[k] - r[1] <= window:
+            delays.append(out_wall[k] - r[1])
+    return np.array(delays)
+
+
+def percentiles(values, ps=(50, 90, 99)):
+    values = np.asarray(values, dtype=float)
+    return {f"p{p}": float(np.percentile(values, p)) if len(values) else None for p in ps}
+
+
+# --- the approach bench's placements ---------------------------------------------------------------------
+ROBOT_HEIGHT = 0.94  # [m] the robot's top (turtlebot_control's description): lower furniture stops it
+PERSON_HEIGHT = 1.8  # [m]
+
+
+def random_approach(scene, rng, tries=2000):
+    """One random approach placement in the world ``scene`` (florence_sim's): the robot somewhere free,
+    a person standing 1.5-2.2 m in front of it (within 20 degrees of its heading, in the Kinect's view,
+    nothing between them), a request (distance 0.5-0.9 m, p2r within +-120 degrees: never from behind,
+    r2p within +-0.5 rad) whose goal position and way (geometry.approach_path) keep the robot 0.30 m
+    clear of everything up to its height. Returns {"robot": (x, y, yaw), "person": (x, y), "distance",
+    "p2r", "r2p"}."""
+    def clear(xy, margin, height=ROBOT_HEIGHT):
+        dist, _ = scene.clearance(np.asarray(xy, dtype=float).reshape(-1, 2), z_max=height, z_min=0.0)
+        return bool(np.all(dist >= margin))
+
+    for _ in range(tries):
+        robot = (rng.uniform(0.4, 7.6), rng.uniform(0.4, 9.6), rng.uniform(-math.pi, math.pi))
+        rng_m = rng.uniform(1.5, 2.2)
+        bearing = robot[2] + rng.uniform(-0.35, 0.35)
+        person = (robot[0] + rng_m * math.cos(bearing), robot[1] + rng_m * math.sin(bearing))
+        distance, p2r, r2p = rng.uniform(0.5, 0.9), rng.uniform(-2.1, 2.1), rng.uniform(-0.5, 0.5)
+        goal = approach_target(person, robot[:2], distance, p2r)
+        way = geometry.approach_path(robot[:2], person, goal, math.copysign(1.0, p2r))
+        sight = np.linspace(robot[:2], person, 12)[1:-3]
+        if (clear([robot[:2]], 0.35) and clear([person], 0.45, PERSON_HEIGHT) and clear([goal], 0.35)
+                and clear(way, 0.30) and clear(sight, 0.15, PERSON_HEIGHT)):
+            return {"robot": tuple(float(v) for v in robot), "person": tuple(float(v) for v in person),
+                    "distance": float(distance), "p2r": float(p2r), "r2p": float(r2p)}
+    raise RuntimeError(f"no free approach placement in {tries} tries")
+
+
+def plot(path, grid, follows, approaches, title):
+    """The following runs (robot and person paths) and the approaches (start, person, goal, end) over
+    the map, written to ``path``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(13, 7.5))
+    for ax in axes:
+        ax.imshow(grid.shades(), cmap="gray", origin="lower", extent=grid.extent, vmin=0, vmax=1)
+        ax.set_xlabel("x [m]")
+        ax.set_ylabel("y [m]")
+    ax = axes[0]
+    for k, run in enumerate(follows):
+        robot, person = np.asarray(run["robot_track"]), np.asarray(run["person_track"])
+        ax.plot(person[:, 1], person[:, 2], "-", color="tab:red", lw=1.2, label="person" if k == 0 else None)
+        ax.plot(robot[:, 1], robot[:, 2], "-", color="tab:blue", lw=0.9, label="robot" if k == 0 else None)
+    ax.legend(loc="upper right", fontsize=8)
+    ax.set_title("follow_me: robot and person paths", fontsize=9)
+    ax = axes[1]
+    for run in approaches:
+        colour = "tab:green" if run["state"] == "SUCCEEDED" else "tab:red"
+        track = np.asarray(run["robot_track"])
+        if len(track):
+            ax.plot(track[:, 1], track[:, 2], "-", color=colour, lw=0.8, alpha=0.8)
+        ax.plot(*run["person"], "o", color="tab:red", ms=4)
+        ax.plot(*run["goal"], "x", color="k", ms=4)
+    ax.set_title("approach_me: ways to the goal (x) beside the person (o); red: not reached", fontsize=9)
+    fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)

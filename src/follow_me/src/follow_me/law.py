@@ -1,0 +1,182 @@
+"""FollowMe's control (ROS-free): the seed's spring law on the person's trail, and the search for a
+person lost (seed 4.1.2, 4.1.3).
+
+Frames and units: positions in one fixed frame (the tracker's, odom) [m], the robot's pose
+(x, y, yaw) [m, rad] in it, times [s]; commands (v [m/s], w [rad/s]), REP 103 (w > 0 turns left).
+
+The law (seed 4.1.2, with REP 103 signs):
+
+    v = k_distance (d - d*) + k_feedforward * (the person's speed away from the robot)
+    w = k_bearing * theta
+
+d is the distance to the person, d* the desired following distance, theta the bearing of the point
+the robot steers to. The seed steered straight at the person; with ``path_following`` the robot
+steers along the person's trail instead (pure pursuit ``lookahead`` m ahead on it), so that it goes
+through a doorway where the person went rather than across the wall's end; in the open, the trail
+and the straight line are one. v is scaled by cos(theta) (no driving on while facing away; turn
+first), clamped to the goal's limits, and both are limited by the acceleration limits. The
+feed-forward term (0 gives the seed's pure spring) removes the spring's lag behind a walking
+person (0.5 m behind at 0.5 m/s with k_distance 1).
+
+A person unseen for ``lost_grace`` s is searched for: the robot turns toward where they were last
+seen, drives there along their trail, then turns toward where they were heading and on, slowly,
+looking; after ``lost_timeout`` s unseen the goal ends (:attr:`Follower.lost`).
+"""
+
+import math
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+from velocity_filter.limiter import clamp, step_towards
+
+from florence_common import pose as pose2d
+from florence_common.angles import diff
+from florence_common.params import Param, ParamTable
+
+FOLLOWING, SEARCHING = "following", "searching"
+
+# The gains: dynamic_reconfigure (cfg/FollowMe.cfg renders this table) and the node's parameters.
+GAINS = ParamTable(
+    Param("k_distance", float, 1.2, "forward speed per metre the person is farther than the desired distance (the "
+          "seed's k_v)", unit="1/s", ge=0, le=5),
+    Param("k_bearing", float, 2.0, "turn rate per radian of bearing of the point steered to (the seed's k_w)",
+          unit="1/s", ge=0, le=10),
+    Param("k_feedforward", float, 1.0, "share of the person's own speed away from the robot added to the forward "
+          "speed (0: the seed's pure spring)", ge=0, le=1.5),
+    Param("max_lin_acc", float, 1.0, "largest change of the forward speed per second (velocity_filter's limit)",
+          unit="m/s^2", gt=0, le=3),
+    Param("max_ang_acc", float, 3.0, "largest change of the turn rate per second", unit="rad/s^2", gt=0, le=10),
+    Param("path_following", bool, True, "steer along the person's trail (through doorways, around corners) "
+          "instead of straight at them"),
+    Param("lookahead", float, 0.5, "how far ahead on the trail the robot steers to", unit="m", gt=0, le=3),
+    Param("search_speed", float, 0.25, "forward speed while driving to where the person was last seen",
+          unit="m/s", gt=0, le=0.5),
+    Param("search_turn_rate", float, 0.6, "turn rate while looking for the person", unit="rad/s", gt=0, le=2),
+)
+
+TRAIL_SPACING = 0.1  # [m] between the trail's points
+REACHED = 0.3  # [m] a trail point this near the robot is passed
+TRAIL_LENGTH = 200  # points kept (20 m)
+
+
+@dataclass
+class Limits:
+    """The goal's limits after defaults: max_lin_speed [m/s], max_ang_speed [rad/s],
+    desired_follow_distance [m]."""
+
+    max_lin_speed: float
+    max_ang_speed: float
+    desired_distance: float
+
+
+@dataclass
+class Step:
+    """One control cycle's output."""
+
+    v: float  # [m/s]
+    w: float  # [rad/s]
+    mode: str  # FOLLOWING or SEARCHING
+    person: tuple  # (x, y) [m] of the person (seen or expected) in the robot frame
+    distance: float  # [m] to the person (expected, while searching)
+    text: str
+
+
+class Follower:
+    """The controller of one goal. ``gains``: GAINS values (replace :attr:`gains` to retune live);
+    ``rate`` [Hz] of :meth:`step`; ``lost_grace`` and ``lost_timeout`` [s]."""
+
+    def __init__(self, gains, limits, rate, lost_grace=0.5, lost_timeout=10.0, search_standoff=0.4):
+        self.gains = gains
+        self.limits = limits
+        self.dt = 1.0 / rate
+        self.lost_grace = lost_grace
+        self.lost_timeout = lost_timeout
+        self.search_standoff = search_standoff
+        self.trail = deque(maxlen=TRAIL_LENGTH)  # the person's positions in the fixed frame
+        self.v = self.w = 0.0  # the last command
+        self.lost = False  # unseen for longer than lost_timeout
+        self._phase = "go"  # of a search: go (to where they were seen), face (where they headed), sweep
+        self._sweep = 1.0  # direction of the sweep
+
+    # --- the trail -----------------------------------------------------------------------------
+    def _record(self, xy):
+        if not self.trail or math.dist(self.trail[-1], xy) >= TRAIL_SPACING:
+            self.trail.append((float(xy[0]), float(xy[1])))
+
+    def _steer_point(self, robot, goal_xy):
+        """The point (fixed frame) to steer to on the way to ``goal_xy`` along the trail."""
+        if not self.gains.path_following or not self.trail:
+            return goal_xy
+        pts = np.asarray(self.trail)
+        d = np.hypot(pts[:, 0] - robot[0], pts[:, 1] - robot[1])
+        start = int(np.argmin(d))  # the trail behind the nearest point is passed
+        while start < len(pts) - 1 and d[start] < REACHED:
+            start += 1
+        for _ in range(start):
+            self.trail.popleft()
+        ahead = np.flatnonzero(d[start:] >= self.gains.lookahead)
+        if len(ahead) == 0 or math.dist(robot[:2], goal_xy) <= self.gains.lookahead:
+            return goal_xy
+        return tuple(pts[start + ahead[0]])
+
+    # --- control -------------------------------------------------------------------------------------
+    def _command(self, v, w):
+        g = self.gains
+        v = clamp(v, self.limits.max_lin_speed)
+        w = clamp(w, self.limits.max_ang_speed)
+        self.v = step_towards(self.v, v, g.max_lin_acc * self.dt)
+        self.w = step_towards(self.w, w, g.max_ang_acc * self.dt)
+        return self.v, self.w
+
+    def step(self, t, robot, person):
+        """One cycle at ``t`` [s]: ``robot`` (x, y, yaw) in the fixed frame, ``person`` the
+        florence_common.people.AttendedPerson (updated by the caller with the tracker's reports)."""
+        g, lim = self.gains, self.limits
+        unseen = person.unseen_for(t)
+        expected = person.expected(t)
+        local = pose2d.transform_points(pose2d.inverse(robot), [expected])[0]
+        distance = math.hypot(local[0], local[1])
+        if unseen <= self.lost_grace:
+            self._phase = "go"
+            self._record(person.xy)
+            target = self._steer_point(robot, expected)
+            tx, ty = pose2d.transform_points(pose2d.inverse(robot), [target])[0]
+            theta = math.atan2(ty, tx)
+            ux, uy = (expected[0] - robot[0]) / max(distance, 1e-6), (expected[1] - robot[1]) / max(distance, 1e-6)
+            away = person.velocity[0] * ux + person.velocity[1] * uy  # [m/s] the person's speed away from the robot
+            v = g.k_distance * (distance - lim.desired_distance) + g.k_feedforward * away
+            v *= max(0.0, math.cos(theta))
+            v, w = self._command(v, g.k_bearing * theta)
+            return Step(v, w, FOLLOWING, (float(local[0]), float(local[1])), distance,
+                        f"following {person.pid} at {distance:.2f} m")
+        if unseen > self.lost_timeout:
+            self.lost = True
+        return self._search(t, robot, person, unseen, expected, (float(local[0]), float(local[1])), distance)
+
+    def _search(self, t, robot, person, unseen, expected, local, distance):
+        """Where the person was last seen, then where they were heading, then around."""
+        g = self.gains
+        text = f"searching for {person.pid}, unseen for {unseen:.1f} s"
+        if self._phase == "go" and distance > self.search_standoff + 0.05:  # to where they were last seen
+            target = self._steer_point(robot, expected)
+            tx, ty = pose2d.transform_points(pose2d.inverse(robot), [target])[0]
+            theta = math.atan2(ty, tx)
+            v = min(g.search_speed, g.k_distance * distance) * max(0.0, math.cos(theta))
+            v, w = self._command(v, g.k_bearing * theta)
+            return Step(v, w, SEARCHING, local, distance, text + ": going to where they were last seen")
+        if self._phase == "go":
+            self._phase = "face"
+        heading = person.velocity
+        if self._phase == "face" and math.hypot(*heading) > 0.1:  # toward where they were heading
+            turn = diff(math.atan2(heading[1], heading[0]), robot[2])
+            if abs(turn) > 0.2:
+                v, w = self._command(0.0, clamp(g.k_bearing * turn, g.search_turn_rate))
+                return Step(v, w, SEARCHING, local, distance, text + ": turning to where they were heading")
+            self._sweep = 1.0 if turn >= 0 else -1.0
+        self._phase = "sweep"
+        v, w = self._command(0.0, self._sweep * g.search_turn_rate)
+        return Step(v, w, SEARCHING, local, distance, text + ": looking around")
+
+    def stop(self):
+        self.v = self.w = 0.0

@@ -1,0 +1,161 @@
+"""FollowMe's control law (follow_me.law) closed around a kinematic robot and a walking person:
+the spring with REP 103 signs, the goal's and the acceleration limits, keeping the distance behind a
+walker, the trail through a doorway, backing off, and the search for a lost person."""
+
+import math
+
+import numpy as np
+import pytest
+from follow_me.law import FOLLOWING, GAINS, SEARCHING, Follower, Limits
+
+from florence_common.people import AttendedPerson
+
+pytestmark = pytest.mark.unit
+
+RATE = 10.0
+LIMITS = Limits(max_lin_speed=0.5, max_ang_speed=1.5, desired_distance=1.0)
+
+
+def gains(**changes):
+    values = dict(GAINS.defaults())
+    values.update(changes)
+    return GAINS.validate(values)
+
+
+def one_step(robot, person_xy, velocity=(0.0, 0.0), g=None, limits=LIMITS):
+    f = Follower(g or gains(max_lin_acc=3.0, max_ang_acc=10.0), limits, RATE)
+    return f.step(0.0, robot, AttendedPerson(1, person_xy, velocity, 0.0))
+
+
+def test_spring_signs_rep103():
+    out = one_step((0.0, 0.0, 0.0), (2.0, 0.0))
+    assert out.v > 0 and out.w == 0 and out.mode == FOLLOWING  # farther than 1 m: forward
+    assert one_step((0.0, 0.0, 0.0), (0.7, 0.0)).v < 0  # nearer: back
+    assert one_step((0.0, 0.0, 0.0), (1.0, 0.5)).w > 0  # on the left: turn left (counter-clockwise)
+    assert one_step((0.0, 0.0, 0.0), (1.0, -0.5)).w < 0
+    assert one_step((0.0, 0.0, math.pi / 2), (0.0, 2.0)).w == pytest.approx(0.0, abs=1e-9)  # in a turned frame
+    assert one_step((0.0, 0.0, 0.0), (1.0, 0.0)).v == pytest.approx(0.0)  # at the distance: stand
+
+
+def test_pure_seed_law_without_feedforward():
+    g = gains(k_distance=1.0, k_bearing=2.0, k_feedforward=0.0, max_lin_acc=3.0, max_ang_acc=10.0)
+    out = one_step((0.0, 0.0, 0.0), (1.3, 0.0), velocity=(0.5, 0.0), g=g)
+    assert out.v == pytest.approx(0.3)  # k_v (d - d*)
+    out = one_step((0.0, 0.0, 0.0), (1.0, 0.2), g=g)
+    assert out.w == pytest.approx(2.0 * math.atan2(0.2, 1.0))  # k_w theta
+    assert out.v == pytest.approx((math.hypot(1.0, 0.2) - 1.0) * math.cos(math.atan2(0.2, 1.0)))
+
+
+def test_limits_of_the_goal_and_of_acceleration():
+    out = one_step((0.0, 0.0, 0.0), (5.0, 0.0), limits=Limits(0.3, 0.5, 1.0))
+    assert out.v == pytest.approx(0.3)
+    assert one_step((0.0, 0.0, 0.0), (0.1, 3.0), limits=Limits(0.3, 0.5, 1.0)).w == pytest.approx(0.5)
+    f = Follower(gains(max_lin_acc=0.8, max_ang_acc=3.0), LIMITS, RATE)
+    out = f.step(0.0, (0.0, 0.0, 0.0), AttendedPerson(1, (5.0, 1.0)))
+    assert out.v == pytest.approx(0.08) and out.w == pytest.approx(0.3)  # 0.8 / 10, 3.0 / 10
+    # a person straight behind: turn first, no driving on
+    assert one_step((0.0, 0.0, 0.0), (-2.0, 0.01)).v == pytest.approx(0.0, abs=1e-3)
+
+
+def simulate(path, speed, seconds, start=(0.0, 0.0, 0.0), g=None, pause=None, limits=LIMITS):
+    """Person walking ``path`` at ``speed`` (standing at its end; ``pause``: (t0, t1) standing),
+    robot integrated at 100 Hz with the base's acceleration limits (1 m/s^2, 4 rad/s^2) and the
+    Create's 0.5 m/s per wheel, controlled at 10 Hz. Returns rows (t, robot x, y, yaw, person x, y)."""
+    path = np.asarray(path, dtype=float)
+    seg = np.hypot(*np.diff(path, axis=0).T)
+    cum = np.concatenate([[0.0], np.cumsum(seg)])
+    f = Follower(g or gains(), limits, RATE)
+    robot = list(start)
+    v = w = 0.0
+    cmd = (0.0, 0.0)
+    walked, rows = 0.0, []
+    person = None
+    dt = 0.01
+    for k in range(int(seconds / dt)):
+        t = k * dt
+        standing = pause is not None and pause[0] <= t < pause[1]
+        step = 0.0 if standing else speed * dt
+        walked = min(walked + step, cum[-1])
+        i = min(np.searchsorted(cum, walked, side="right") - 1, len(seg) - 1)
+        direction = (path[i + 1] - path[i]) / seg[i]
+        xy = path[i] + direction * (walked - cum[i])
+        vel = direction * (0.0 if standing or walked >= cum[-1] else speed)
+        if k % 10 == 0:  # 10 Hz: the tracker's report and a control cycle
+            if person is None:
+                person = AttendedPerson(1, xy, vel, t)
+            person.update([1], [xy], [vel], t)
+            out = f.step(t, tuple(robot), person)
+            cmd = (out.v, out.w)
+        v += max(-dt, min(dt, cmd[0] - v))
+        w += max(-4 * dt, min(4 * dt, cmd[1] - w))
+        half = 0.13  # [m] half the wheel separation: 0.5 m/s per wheel at most
+        scale = min(1.0, 0.5 / (abs(v) + half * abs(w) + 1e-12))
+        robot[0] += v * scale * math.cos(robot[2]) * dt
+        robot[1] += v * scale * math.sin(robot[2]) * dt
+        robot[2] += w * scale * dt
+        rows.append((t, *robot, *xy))
+    return np.array(rows)
+
+
+@pytest.mark.parametrize("speed, lag", [(0.3, 0.02), (0.5, 0.16)])
+def test_keeps_the_distance_behind_a_walker(speed, lag):
+    """Behind a person walking straight on: no lag where the robot can go faster than the person;
+    at the Create's top speed (0.5 m/s) the distance lost while accelerating (0.5^2 / 2 m at
+    1 m/s^2, and a control cycle) cannot be made up."""
+    rows = simulate([(1.0, 0.0), (12.0, 0.0)], speed, 25.0)
+    d = np.hypot(rows[:, 4] - rows[:, 1], rows[:, 5] - rows[:, 2])
+    walking = (rows[:, 0] > 5.0) & (rows[:, 4] < 11.9)
+    err = d[walking] - 1.0
+    assert np.max(np.abs(err)) < lag, f"distance error up to {np.max(np.abs(err)):.3f} m"
+    assert d.min() > 0.9
+
+
+def test_stops_at_the_distance_when_the_person_stops_and_backs_off_when_they_come():
+    rows = simulate([(1.0, 0.0), (4.0, 0.0)], 0.5, 15.0)
+    d = np.hypot(rows[:, 4] - rows[:, 1], rows[:, 5] - rows[:, 2])
+    assert abs(d[-1] - 1.0) < 0.05 and d.min() > 0.85
+    rows = simulate([(1.0, 0.0), (3.0, 0.0), (1.5, 0.0)], 0.4, 20.0)
+    d = np.hypot(rows[:, 4] - rows[:, 1], rows[:, 5] - rows[:, 2])
+    assert d.min() > 0.6, "it backs away from a person walking toward it"
+    assert rows[-1, 1] < 0.6, "and ends back behind where it started"
+
+
+def test_through_a_doorway_it_goes_where_the_person_went():
+    """The person walks 3 m north, through a doorway (walls' ends at x = +-0.45 at y = 3), then
+    turns east: the robot passes the doorway between the walls' ends, the seed's straight law cuts
+    the corner across the east wall's end."""
+    path = [(0.0, 1.0), (0.0, 3.6), (4.0, 3.6)]
+    def least_gap(rows):
+        near = np.abs(rows[:, 2] - 3.0) < 0.2  # robot centre crossing the wall's line
+        return np.min(np.abs(rows[near, 1] - 0.45)) if np.any(near) else 0.0, rows[near, 1]
+
+    trail = simulate(path, 0.5, 20.0)
+    _, xs = least_gap(trail)
+    assert len(xs) and np.all(np.abs(xs) < 0.45 - 0.18), f"crossed the wall's line at x {xs.min():.2f}..{xs.max():.2f}"
+    straight = simulate(path, 0.5, 20.0, g=gains(path_following=False))
+    _, xs_seed = least_gap(straight)
+    assert not len(xs_seed) or np.max(xs_seed) > 0.45 - 0.18, "the pure seed law should cut the corner"
+
+
+def test_a_lost_person_is_searched_for_then_given_up():
+    g = gains()
+    f = Follower(g, LIMITS, RATE, lost_grace=0.5, lost_timeout=6.0)
+    person = AttendedPerson(1, (1.2, 0.0), (0.0, 0.5), 0.0)  # last seen 1.2 m ahead, walking left
+    robot = [0.0, 0.0, 0.0]
+    modes, texts = [], []
+    for k in range(80):
+        t = k * 0.1
+        out = f.step(t, tuple(robot), person)
+        modes.append(out.mode)
+        texts.append(out.text)
+        robot[0] += out.v * math.cos(robot[2]) * 0.1
+        robot[1] += out.v * math.sin(robot[2]) * 0.1
+        robot[2] += out.w * 0.1
+        if f.lost:
+            break
+    assert modes[0] == FOLLOWING and SEARCHING in modes
+    assert any("going to where they were last seen" in x for x in texts)
+    assert any("turning to where they were heading" in x for x in texts)
+    assert any("looking around" in x for x in texts)
+    assert f.lost and 6.0 < t <= 6.2
+    assert math.hypot(robot[0] - 1.2, robot[1] - 0.5) < 0.5, "it went to where they were last seen"
