@@ -26,3 +26,17 @@ def server_ready(client):
         return False
     return (any(c.callerid_pub == server for c in ac.result_sub.impl.connections)
             and any(c.callerid_pub == server for c in ac.feedback_sub.impl.connections))
+
+
+def server_ready_within(client, timeout, period=0.05):
+    """:func:`server_ready`, waiting up to ``timeout`` s of wall time for the connection (a node
+    called just after start-up, before its client met the server); never blocks on a stalled
+    simulated clock."""
+    import time
+
+    deadline = time.monotonic() + timeout
+    while not server_ready(client):
+        if time.monotonic() >= deadline:
+            return False
+        time.sleep(period)
+    return True

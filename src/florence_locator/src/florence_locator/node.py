@@ -53,7 +53,7 @@ from detect_users.msg import DetectedUser
 from florence_common import pose as pose2d
 from florence_common.params import FRAME, Param, ParamTable
 from florence_common_ros import convert
-from florence_common_ros.actions import server_ready, state_name
+from florence_common_ros.actions import server_ready_within, state_name
 from florence_common_ros.diagnostics import ERROR, OK, WARN, Diagnostics
 from florence_common_ros.node import read_params, run
 from florence_common_ros.transforms import lookup_matrix
@@ -85,6 +85,8 @@ PARAMS = ParamTable(
           ge=0),
     Param("sighting_clearance", float, 0.25, "... and this far from the map's walls and furniture (the tracker's "
           "ghosts sit on door frames and furniture edges)", unit="m", ge=0),
+    Param("server_wait", float, 3.0, "a go-to call waits this long (wall time) for move_base's action server to "
+          "connect before it is refused (a call just after start-up)", unit="s", ge=0, le=30),
 )
 
 
@@ -287,7 +289,7 @@ class FlorenceLocatorNode:
     # --- readiness of the pieces gotoUser needs ------------------------------------------------------------------
     def _missing_for_user(self):
         """Why gotoUser cannot run now (a piece is absent), or None."""
-        if not server_ready(self.client):
+        if not server_ready_within(self.client, self.p.server_wait):
             return "move_base is not running (no action server move_base)"
         try:
             _pubs, subs, services = self.master.getSystemState()
@@ -399,7 +401,7 @@ class FlorenceLocatorNode:
         return response(ok, message)
 
     def goto_room(self, req):
-        if not server_ready(self.client):
+        if not server_ready_within(self.client, self.p.server_wait):
             return srv.GotoRoomResponse(False, "gotoRoom: move_base is not running (no action server move_base)")
         return self._goto(lambda now: self.core.goto_room(req.room, now), srv.GotoRoomResponse)
 
@@ -408,7 +410,7 @@ class FlorenceLocatorNode:
             pose = check_pose(req.x, req.y, req.phi)
         except ValueError as exc:
             return srv.GotoXYPhiResponse(False, f"gotoXYPhi: {exc}")
-        if not server_ready(self.client):
+        if not server_ready_within(self.client, self.p.server_wait):
             return srv.GotoXYPhiResponse(False, "gotoXYPhi: move_base is not running (no action server move_base)")
         return self._goto(lambda now: self.core.goto_xyphi(pose, now), srv.GotoXYPhiResponse)
 
