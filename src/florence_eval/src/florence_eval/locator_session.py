@@ -96,6 +96,7 @@ class LocatorSession(PeopleSession):
         self.poses = []  # (t, {id: (x, y, yaw, posture)}) of the people (ground truth)
         self.collisions = 0
         self.override = rospy.Publisher("/florenceLocator/manualOverride", Bool, queue_size=1, latch=True)
+        self.pubs.append(self.override)
         self._proxies = {}
         self.detections = []  # simulated times of detect_users' /detected_user (command true)
         self.subs += [

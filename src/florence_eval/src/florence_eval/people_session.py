@@ -91,6 +91,9 @@ class PeopleSession:
 
         self.cmd = rospy.Publisher(cmd_vel, Twist, queue_size=1)
         self.initialpose = rospy.Publisher("/initialpose", PoseWithCovarianceStamped, queue_size=1, latch=True)
+        # unregistered by close(): a latched /initialpose left in a test process would place the next
+        # test's amcl where this one last carried the robot
+        self.pubs = [self.cmd, self.initialpose]
         self.subs = [
             rospy.Subscriber(tracked_topic, TrackedUsers, self._on_tracks, queue_size=50),
             rospy.Subscriber("/people_ground_truth", People, self._on_people, queue_size=50),
@@ -127,8 +130,8 @@ class PeopleSession:
 
     def close(self):
         self.stop()
-        for sub in self.subs:
-            sub.unregister()
+        for handle in (*self.subs, *self.pubs):
+            handle.unregister()
 
     def sim_now(self):
         with self.lock:
