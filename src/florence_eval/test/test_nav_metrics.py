@@ -182,14 +182,14 @@ def test_cpu_seconds_of_this_process():
 def test_stopwatch_keeps_wall_and_cpu_time_apart():
     watch = Stopwatch()
     with watch:
-        time.sleep(0.05)  # waiting: wall time, no CPU time
+        time.sleep(0.05)  # waiting: wall time, no CPU time (sleep may wake a fraction of a ms early by perf_counter)
     with watch:
         end = time.thread_time() + 0.03
         while time.thread_time() < end:  # working: CPU time too
             pass
     s = watch.summary()
     assert s["n"] == 2
-    assert watch.wall_ms[0] >= 50.0 and watch.cpu_ms[0] < 10.0
+    assert watch.wall_ms[0] >= 49.0 and watch.cpu_ms[0] < 10.0
     assert watch.cpu_ms[1] >= 25.0 and watch.wall_ms[1] >= watch.cpu_ms[1] - 1.0
-    assert s["p99_ms"] >= 50.0 and s["cpu_p99_ms"] >= 25.0
+    assert s["p99_ms"] >= 49.0 and s["cpu_p99_ms"] >= 25.0
     assert Stopwatch().summary() == {"n": 0}
