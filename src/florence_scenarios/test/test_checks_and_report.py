@@ -32,8 +32,9 @@ class FakeSteps:
         return self.rows[key]
 
 
-def _run(corridor_y=6.1, bumps=1, bumper=1, scan_hz=10.0, drift=0.05):
-    steps = FakeSteps({"corridor": {"truth": [4.0, corridor_y, 0.0]}, "bump": {"bumps_wheeldrops": bumper}})
+def _run(corridor_y=6.1, bumps=0, bumper=0, wall_y=6.55, scan_hz=10.0, drift=0.05):
+    steps = FakeSteps({"corridor": {"truth": [4.0, corridor_y, 0.0]},
+                       "bump": {"bumps_wheeldrops": bumper, "truth": [4.0, wall_y, 1.57]}})
     rates = dict(EXPECTED_RATES, **{"/scan": scan_hz})
     summary = {"collisions_in_scenario": bumps, "rates_hz_sim_time": rates, "final_drift_m": drift}
     return by_hand_checks(steps, summary)
@@ -42,8 +43,11 @@ def _run(corridor_y=6.1, bumps=1, bumper=1, scan_hz=10.0, drift=0.05):
 def test_by_hand_checks_pass_on_a_good_run_and_name_what_failed():
     assert _run().passed
     assert _run(corridor_y=5.0).failed() == ["robot drove into the corridor"]
-    assert _run(bumps=0).failed() == ["one collision, bumper pressed"]
-    assert _run(bumper=0).failed() == ["one collision, bumper pressed"]
+    at_wall = ["stopped short of the wall: no collision, bumper free, within 0.15 m"]
+    assert _run(bumps=1).failed() == at_wall
+    assert _run(bumper=1).failed() == at_wall
+    assert _run(wall_y=6.3).failed() == at_wall  # stopped 0.33 m short: too timid
+    assert _run(wall_y=6.65).failed() == at_wall  # the body inside the wall
     assert _run(scan_hz=5.0).failed() == ["/scan at about 10 Hz (sim time)"]
     assert _run(drift=0.4).failed() == ["odometry drift below 0.3 m"]
 

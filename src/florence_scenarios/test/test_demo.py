@@ -25,11 +25,11 @@ def test_demo_writes_report_from_live_tf(tmp_path):
     assert not list(out.glob("*.tmp")), "temporary files left behind"
     assert "Scenario checks: all passed" in report and "Navigation checks: all passed" in report
     scenario = json.loads((out / "scenario.json").read_text())
-    assert scenario["summary"]["collisions_in_scenario"] == 1
+    assert scenario["summary"]["collisions_in_scenario"] == 0
     assert 5.55 < scenario["steps"]["corridor"]["truth"][1] < 6.75, "the robot reached the corridor"
     assert scenario["summary"]["rates_hz_sim_time"]["/scan"] == pytest.approx(10.0, rel=0.25)
     checks = scenario["checks"]
-    assert checks["Scenario checks"]["one collision, bumper pressed"]["passed"]
+    assert checks["Scenario checks"]["stopped short of the wall: no collision, bumper free, within 0.15 m"]["passed"]
     assert checks["Navigation checks"]["no collision while navigating"]["passed"]
     assert all(c["passed"] for section in checks.values() for c in section.values()), checks
     goals = scenario["navigation"]["goals"]
