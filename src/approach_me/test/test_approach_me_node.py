@@ -153,3 +153,15 @@ def test_ends_with_the_reason(node, event, reason):
         assert cmds[-1][1:] == (0.0, 0.0) and states[-1] == "idle"
     finally:
         people["now"] = {5: PERSON}
+
+
+def test_the_manuals_python_example_reports_a_refused_approach(node, ros_master):
+    """florence_bringup's examples/enablers_client.py approach, as the README runs it, with nobody
+    where it says: ABORTED with the server's reason, exit status 1."""
+    example = rosrun(ros_master, "florence_bringup", "enablers_client.py", "approach", "-2.0", "0.0")
+    try:
+        wait_for(lambda: example.proc.poll() is not None, 60, what="enablers_client.py approach to end")
+    finally:
+        out = example.output()
+        example.stop()
+    assert example.proc.returncode == 1 and "approach_me: ABORTED (no tracked person within" in out, out

@@ -416,8 +416,10 @@ def test_without_move_base_go_to_calls_are_refused(system, ros_master):
                   f"_rooms_file:={map_file('apartment', 'rooms.yaml')}", f"_hotspots_file:={system['hotspots']}")
     try:
         rospy.wait_for_service("/loc_test_alone/florenceLocator/gotoRoom", 30)
+        start = time.monotonic()
         res = rospy.ServiceProxy("/loc_test_alone/florenceLocator/gotoRoom", srv.GotoRoom)("kitchen")
         assert not res.success and "move_base is not running" in res.message
+        assert time.monotonic() - start > 2.5, "refused only after ~server_wait (3 s) without a connection"
         res = rospy.ServiceProxy("/loc_test_alone/florenceLocator/gotoUser", srv.GotoUser)()
         assert not res.success and "move_base is not running" in res.message
     finally:
@@ -445,3 +447,21 @@ def test_a_corrupt_file_stops_the_node_naming_file_and_line(system, rospy_node, 
     finally:
         for name in ("~rooms_file", "~hotspots_file"):
             rospy_node.delete_param(name)
+
+
+def test_the_manuals_python_example_sends_the_robot_to_a_room(system, ros_master):
+    """florence_bringup's examples/locator_client.py, as the README runs it: gotoRoom, then refused
+    for an unknown room with the reason (exit status 1)."""
+    from florence_common.processes import rosrun
+
+    system["mock"].pose = KITCHEN
+    wait_for(lambda: _call("getRobotPosRoom").room == "kitchen", 10, what="the robot carried to the kitchen")
+    for room, code, words in [("bedroom", 0, ["getStatus: SUCCEEDED", "the robot is in bedroom"]),
+                              ("attic", 1, ["success False", "attic"])]:
+        example = rosrun(ros_master, "florence_bringup", "locator_client.py", "room", room, f"__ns:={NS}")
+        try:
+            wait_for(lambda e=example: e.proc.poll() is not None, 90, what=f"locator_client.py room {room} to end")
+        finally:
+            out = example.output()
+            example.stop()
+        assert example.proc.returncode == code and all(w in out for w in words), out

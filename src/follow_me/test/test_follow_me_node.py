@@ -133,3 +133,18 @@ def test_a_person_who_vanishes_is_searched_for_then_lost(node):
     assert state == GoalStatus.ABORTED and "person lost" in text, text
     assert states[-1] == "idle" and cmds[-1][1:] == (0.0, 0.0)
     people["now"] = {7: (1.0, 4.0), 8: (3.0, 2.0)}
+
+
+def test_the_manuals_python_example_follows_then_cancels(node, ros_master):
+    """florence_bringup's examples/enablers_client.py, as the README runs it: the person ahead is
+    followed (feedback in the robot frame) until the example cancels: PREEMPTED, exit status 0."""
+    _, cmds, _, _, _ = node
+    example = rosrun(ros_master, "florence_bringup", "enablers_client.py", "follow", "2.1", "0.1", "--seconds", "2")
+    try:
+        wait_for(lambda: example.proc.poll() is not None, 60, what="enablers_client.py follow to end")
+    finally:
+        out = example.output()
+        example.stop()
+    assert example.proc.returncode == 0, out
+    assert "person at (2.00, 0.00)" in out and "follow_me: PREEMPTED" in out, out
+    assert cmds[-1][1:] == (0.0, 0.0), "the robot stopped when the example cancelled"
