@@ -104,6 +104,10 @@ def test_amcl_follows_a_tour_and_resets(amcl_in_sim, tf_buffer):
     publish_initial(*here)
     rospy.ServiceProxy("request_nomotion_update", Empty)()
     wait_for(lambda: estimate_near(here[0], here[1], 0.1), 30, what="amcl_pose back at the true pose")
+    # rospy shares one publisher per topic in a process: left registered, this one would keep alive the latched
+    # /initialpose a later test's session publishes, and that pose would reset every amcl started after it
+    # (test_nav_sim's amcl started where test_enablers_sim last carried the robot)
+    pub.unregister()
 
     # global_localization spreads max_particles over the whole free space and publishes the spread
     # set at once (the next scan update may already resample it towards the true pose).

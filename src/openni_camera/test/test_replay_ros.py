@@ -48,6 +48,8 @@ def scene(ros_master, rospy_node, tf_buffer, tmp_path_factory):
     # an earlier test's odom -> base_footprint on /tf, cached in this session's buffer, would make the chain to
     # the map have no common time with the replay's (tf2: "extrapolation into the past" in the full suite)
     tf_buffer.clear()
+    if rospy_node.has_param("/use_sim_time"):  # an earlier simulation's: the drivers run on wall time
+        rospy_node.delete_param("/use_sim_time")
     now = rospy_node.Time.now()
     broadcaster = tf2_ros.StaticTransformBroadcaster()
     broadcaster.sendTransform([transform_stamped(now, "map", "odom", 0.0, 0.0, 0.0),
@@ -140,11 +142,17 @@ def _cloud_in_map(scene):
     msg = scene["probe"].wait_for("/camera/rgb/points")
     assert msg.header.frame_id == "camera_rgb_optical_frame" and (msg.width, msg.height) == (640, 480)
     assert msg.point_step == 16 and not msg.is_dense
+    from florence_common import pose
+
     matrix, why = None, None
     deadline = rospy.get_time() + TIMEOUT
+    # through the robot's own tf (the URDF and kinect_aux's replayed tilt), then the robot's known place in the
+    # map: another test's map -> odom or odom -> base_footprint still on this session's /tf would otherwise mix
+    # with this one's static frames ("extrapolation into the past" in the full suite)
     while matrix is None and rospy.get_time() < deadline:  # robot_state_publisher needs the tilt joint first
-        matrix, why = lookup_matrix(scene["tf"], "map", msg.header.frame_id, rospy.Time(0), 1.0)
+        matrix, why = lookup_matrix(scene["tf"], "base_footprint", msg.header.frame_id, rospy.Time(0), 1.0)
     assert matrix is not None, why
+    matrix = pose.planar_matrix(*ROBOT) @ matrix
     xyz, rgb = cloud_xyz_rgb(msg)
     return xyz.astype(np.float64) @ matrix[:3, :3].T + matrix[:3, 3], rgb
 
