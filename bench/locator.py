@@ -5,7 +5,7 @@ simulated apartment, with the whole stack.
         [--user-xy]
 
 Starts what the robot runs (florence_eval.locator_session.launch_stack: turtlebot_2dnav_control.launch
-sim:=true, user_tracker.launch, florence_locator.launch) on a private master. Each run places the user
+sim:=true with its user tracker, florence_locator.launch) on a private master. Each run places the user
 in a random room (standing or sitting, facing anywhere, at least 0.55 m from furniture and 0.6 m from
 the room's hotspot) and the robot in another room, tells the locator the user's room as a home
 sensor would (setUserPosRoom; --user-xy: the user's true pose through setUserPosXYPhi, help from

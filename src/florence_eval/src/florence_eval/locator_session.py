@@ -2,7 +2,7 @@
 bench/locator.py).
 
 :func:`launch_stack` starts what the robot runs: ``turtlebot_2dnav_control.launch sim:=true``
-(florence_sim, filters, multiplexer, map_server, amcl, move_base), ``user_tracker.launch`` and
+(florence_sim, filters, multiplexer, map_server, amcl, move_base, the user tracker) and
 ``florence_locator.launch`` (florence_locator_node, detect_users_node, approach_me_map_node), one
 after the other (roslaunches started at once race for /run_id). :class:`LocatorSession` calls the
 florenceLocator services as a client would, scripts the scene through florence_sim's services
@@ -61,10 +61,12 @@ def launch_stack(master, start, real_time_factor=2.0, seed=1, people=None, hotsp
                                f"x:={x}", f"y:={y}", f"yaw:={yaw}"))
         # the first roslaunch sets /run_id; the others, started once it is there, do not race for it
         wait_for(lambda: graph.hasParam("/run_id"), 60, what="roslaunch's /run_id")
-        procs.append(roslaunch(master, "user_tracker_ni", "user_tracker.launch"))
+        # the navigation launch runs the user tracker itself (move_base keeps its distance from people): a
+        # second user_tracker.launch here would replace its node by name and leave neither serving ~Stop
         procs.append(roslaunch(master, "florence_locator", "florence_locator.launch", f"rooms_file:={ROOMS}",
                                f"hotspots_file:={hotspots}"))
-        for proc, node in zip(procs, ("/move_base", "/user_tracker_ni_node", "/approach_me_map_node"), strict=True):
+        for proc, node in ((procs[0], "/move_base"), (procs[0], "/user_tracker_ni_node"),
+                           (procs[1], "/approach_me_map_node")):
             started(proc, node)
     except Exception:
         for proc in reversed(procs):
