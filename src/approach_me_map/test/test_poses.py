@@ -40,20 +40,6 @@ def test_open_space_front_left_or_front_right_on_the_robots_side():
     assert all(abs(math.degrees(c.offset)) > 90 for c in ranked[-9:])
 
 
-def test_move_base_goal_stands_off_where_the_room_allows():
-    """move_base keeps people at 0.6 m: its goal is on the pose's line at P.standoff (0.9 m) from the user; where
-    that point is blocked (a wall 0.8 m south of the user), the pose itself."""
-    user, robot = (4.0, 4.0), (4.0, 1.0)
-    best = rank(user, robot, P, room())[0]
-    gx, gy, gyaw = best.goal()
-    assert math.hypot(gx - user[0], gy - user[1]) == pytest.approx(P.standoff)
-    assert math.atan2(gy - user[1], gx - user[0]) == pytest.approx(best.angle) and gyaw == best.yaw
-    walled = rank(user, robot, P, room(walls=[(0.0, 3.1, 8.0, 3.2)]))
-    south = [c for c in walled if abs(math.degrees(c.offset)) < 1]
-    assert south and south[0].goal() == (south[0].x, south[0].y, south[0].yaw)
-    assert rank(user, robot, ApproachParams(standoff=0.0), room())[0].goal()[:2] == (best.x, best.y)
-
-
 def test_a_wall_beside_the_user_leaves_the_other_side():
     user, robot = (4.0, 4.0), (4.0, 1.0)
     # a wall 0.35 m to the user's east (x 4.35 .. 4.5): the south-east poses lack clearance

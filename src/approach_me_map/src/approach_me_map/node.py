@@ -64,9 +64,6 @@ _A, _L = ApproachParams(), AlignParams()
 PARAMS = ParamTable(
     Param("safe_distance", float, _A.safe_distance, "distance from the user's centre to the robot's at the end "
           "(seed DEFAULT_SAFE_DISTANCE)", unit="m", ge=0.45, le=2.0),
-    Param("standoff", float, _A.standoff, "move_base's goal is on the chosen pose's line this far from the user "
-          "(move_base keeps people at min_person_distance, 0.6 m); the last part is driven straight; <= "
-          "safe_distance: the pose itself", unit="m", ge=0),
     Param("trials", int, 3, "poses sent to move_base before ABORTED (seed: 3)", ge=1),
     Param("plan_checks", int, 8, "candidate poses asked of make_plan for each trial", ge=1),
     Param("candidate_step", float, math.degrees(_A.step), "angle between candidate poses around the user",
@@ -108,7 +105,7 @@ class ApproachMeMapNode:
     def __init__(self):
         self.p = p = read_params(PARAMS)
         self.params = ApproachParams(p.safe_distance, math.radians(p.candidate_step), math.radians(p.preferred_offset),
-                                     min_clearance=p.min_clearance, standoff=p.standoff)
+                                     min_clearance=p.min_clearance)
         self.align_params = AlignParams(p.safe_distance, p.align_speed, front_margin=p.front_margin,
                                         accept_distance=p.accept_distance, accept_angle=math.radians(p.accept_angle))
         self.lock = threading.Lock()
@@ -298,7 +295,7 @@ class ApproachMeMapNode:
             try:
                 self.make_plan.wait_for_service(2.0)
                 plan = self.make_plan(start=convert.pose_stamped(*robot, self.p.map_frame, rospy.Time.now()),
-                                      goal=convert.pose_stamped(*c.goal(), self.p.map_frame, rospy.Time.now()),
+                                      goal=convert.pose_stamped(c.x, c.y, c.yaw, self.p.map_frame, rospy.Time.now()),
                                       tolerance=0.0).plan
             except (rospy.ROSException, rospy.ServiceException) as exc:
                 rospy.logwarn_throttle(5.0, LOG + "make_plan failed: %s", exc)
@@ -311,7 +308,7 @@ class ApproachMeMapNode:
         """One trial: move_base to ``goal``, then the last half metre. (ok, what happened)."""
         p = self.p
         done = threading.Event()
-        self.client.send_goal(MoveBaseGoal(target_pose=convert.pose_stamped(*goal.goal(), p.map_frame,
+        self.client.send_goal(MoveBaseGoal(target_pose=convert.pose_stamped(goal.x, goal.y, goal.yaw, p.map_frame,
                                                                             rospy.Time.now())),
                               done_cb=lambda *_: done.set())
         started = rospy.get_time()

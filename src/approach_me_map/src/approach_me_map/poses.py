@@ -24,15 +24,9 @@ from.
 without a path are skipped), sends the first with a path to move_base, and after a failure tries
 the next one at least ``trial_separation`` away in angle: at most 3 trials (seed 3.10).
 
-**The move_base goal** is on the candidate's line at ``standoff`` (0.9 m) from the user when that
-point is as free and the line from it to the candidate crosses nothing: move_base keeps people
-at ``min_person_distance`` (0.6 m) and would never reach a pose 0.5 m from the user (on the
-merged stack it circled the user or oscillated until its recoveries gave up); otherwise the goal
-is the candidate itself.
-
 **The last half metre** (:class:`Align`). move_base stops within its xy_goal_tolerance (0.25 m)
-of the goal, too coarse for 0.5 m from a person, and short of them by its own rules. From where
-it stopped, the robot turns on the spot to face the user, drives straight toward or away from them to ``safe_distance`` (slowly;
+of the goal, too coarse for 0.5 m from a person. From where it stopped, the robot turns on the
+spot to face the user, drives straight toward or away from them to ``safe_distance`` (slowly;
 forward only while the laser shows ``front_margin`` free beyond its nose, backward only as far as
 the map is free behind it), and turns to face them again. Closed on odometry.
 """
@@ -56,7 +50,6 @@ class ApproachParams:
     user_radius: float = 0.3  # [m] obstacles this near the user are the user's seat (sofa, chair, bed)
     trial_separation: float = math.radians(40.0)  # [rad] a new trial differs this much from the tried ones
     right_bonus: float = 0.05  # cost taken off the person's right side
-    standoff: float = 0.9  # [m] from the user to the move_base goal on the candidate's line (<= safe_distance: none)
 
 
 @dataclass(frozen=True)
@@ -68,14 +61,6 @@ class Candidate:
     offset: float  # [rad] angle at the user from the line to the robot, counter-clockwise positive
     clearance: float  # [m] to the nearest obstacle of the map
     cost: float
-    goal_x: float = math.nan  # [m] map: move_base's goal (the standoff point, or the pose itself)
-    goal_y: float = math.nan
-
-    def goal(self):
-        """(x, y, yaw) of the move_base goal."""
-        if math.isnan(self.goal_x):
-            return self.x, self.y, self.yaw
-        return self.goal_x, self.goal_y, self.yaw
 
 
 class ObstacleGrid(Grid):
@@ -122,22 +107,10 @@ def rank(user, robot, p, grid=None, exclude=()):
         if off < 0:  # clockwise from the robot's line: the right of a person facing the robot
             cost -= p.right_bonus
         cost += 0.1 * float(np.hypot(xy[k, 0] - robot[0], xy[k, 1] - robot[1]))
-        gx, gy = _standoff((ux, uy), direction, xy[k], p, grid)
         out.append(Candidate(float(xy[k, 0]), float(xy[k, 1]), float(angles.wrap(direction + math.pi)), direction,
-                             off, float(clearance[k]), float(cost), gx, gy))
+                             off, float(clearance[k]), float(cost)))
     out.sort(key=lambda c: c.cost)
     return out
-
-
-def _standoff(user, direction, pose_xy, p, grid):
-    """move_base's goal for a candidate: the point at ``p.standoff`` on its line when free and joined
-    to the candidate by a free line, else NaN (the candidate itself)."""
-    if p.standoff <= p.safe_distance:
-        return math.nan, math.nan
-    g = (user[0] + p.standoff * math.cos(direction), user[1] + p.standoff * math.sin(direction))
-    if grid is not None and (grid.clearance_at([g])[0] < p.min_clearance or not grid.line_free(g, pose_xy)):
-        return math.nan, math.nan
-    return float(g[0]), float(g[1])
 
 
 def _angle_cost(offset, p):
