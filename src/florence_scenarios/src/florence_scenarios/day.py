@@ -12,7 +12,7 @@ The robot starts in the kitchen. The user (alice, red shirt) sits in the living 
 4. ``follow_me``: the user stands up and walks to the bedroom; the goal is the tracker's position
    of the user (``filtered_tracked_users``, in base_link through odometry), picked near where
    florenceLocator last knew the user; she sits down there;
-5. ``approach_me``: to a place beside the seated user (p2r -90 degrees: her right side);
+5. ``approach_me``: to a place beside the seated user (p2r 60 degrees: her left side);
 6. ``gotoRoom("kitchen")``;
 7. ``setHotspot``, florence_locator killed (SIGKILL) and started again (rosrun, its parameters still
    on the master), ``getHotspot`` serves the new value;
@@ -63,10 +63,10 @@ USER_SEAT = (3.0, 2.4, 2.8)  # living room, by the dining table, facing west-nor
 VISITOR_POSE = (4.3, 4.9, -2.4)  # the living room's north-east, by the dining table, facing into the room
 # the user's walk from her seat to the bedroom: out of the living room's door (x 2.0..2.9 at y 5.5),
 # across the corridor, through the bedroom's door (x 1.0..1.9 at y 6.8), to a seat by the east wall
-WALK_SPEED = 0.4  # [m/s]
-BEDROOM_SEAT = (4.9, 7.5, math.pi)  # facing west, into the room (and the robot that followed her)
+WALK_SPEED = 0.3  # [m/s] an elderly person's
+BEDROOM_SEAT = (4.6, 8.4, math.pi)  # the bedroom's open east part, facing west into the room
 FOLLOW_DISTANCE = 1.0  # [m]
-APPROACH = {"distance": 0.6, "p2r": -math.pi / 2, "r2p": 0.0}  # beside her (at her right, she faces west)
+APPROACH = {"distance": 0.6, "p2r": math.pi / 3, "r2p": 0.0}  # beside her (the robot comes from the south-west)
 NEW_HOTSPOT = ("tv", 1.0, 4.3, math.pi)  # a new labelled place in the living room [m, m, rad]
 ROOMS = map_file("apartment", "rooms.yaml")
 
@@ -89,7 +89,7 @@ def walk_path(start):
     dining table's chairs to the living room's door."""
     x, y, yaw = start
     return [[x, y], [x + 0.8 * math.cos(yaw), y + 0.8 * math.sin(yaw)], [1.75, 3.4], [1.75, 4.6], [2.45, 5.2],
-            [2.35, 5.9], [1.5, 6.5], [1.45, 7.2], [2.2, 7.45], list(BEDROOM_SEAT[:2])]
+            [2.35, 5.9], [1.5, 6.5], [1.45, 7.2], [2.2, 7.45], [3.9, 7.45], list(BEDROOM_SEAT[:2])]
 
 
 def people_file(path):
@@ -307,6 +307,8 @@ class Day:
                 self.check("gotoUser: SUCCEEDED", False, res.message)
                 return
             done = self.s.wait_status(TERMINAL, 240.0, wall_timeout=self.wall_limit(240.0))
+            if done.status == "TIMEOUT":
+                self.stop_activity()
             self.s.wait_sim(0.5)  # at rest, the pose recorded
             st.outcome = done.status
             user, visitor, robot = self.user(), self.s.person(VISITOR), self.s.robot()
@@ -489,6 +491,8 @@ class Day:
             return
         done = self.s.wait_status({"SUCCEEDED", "ABORTED", "PREEMPTED", "REJECTED", "RECALLED"}, sim_timeout,
                                   wall_timeout=self.wall_limit(sim_timeout))
+        if done.status == "TIMEOUT":
+            self.stop_activity()
         self.s.wait_sim(0.5)
         spot = self.call("getHotspot", room)
         here = self.call("getRobotPosRoom")
@@ -542,6 +546,14 @@ class Day:
                        f"({got.x:.3f}, {got.y:.3f}, {got.phi:.3f}): {got.message}")
             self.check("setHotspot + restart: the hotspots file holds it", bool(on_disk), f"{on_disk}")
 
+    def stop_activity(self):
+        """End a go-to that did not end in time, as a user would: manualOverride on, then off."""
+        self.log("stopping the locator's activity (manualOverride true, then false)")
+        self.s.set_override(True)
+        self.s.wait_sim(1.0)
+        self.s.set_override(False)
+        self.s.wait_sim(0.5)
+
     def _locator_answers(self):
         """Whether florenceLocator answers getRobotPosRoom with success (a killed node's services stay
         registered with the master until its successor registers them again: a call may fail)."""
@@ -574,7 +586,7 @@ class Day:
                 self.log("keyboard: holding 'i' (forward)")
                 keyboard.hold("i", 30.0, until=lambda: math.dist(self.s.robot()[:2], (x0, y0)) > 0.3)
                 released = self.s.sim_now()
-                self.s.wait_sim(1.5)
+                self.s.wait_sim(3.0)
                 track = self.s.track(t0)
                 dist, turn = judge.moved(track, t0, self.s.sim_now())
                 at_rest = locator_metrics.time_to_stop(track, released)
@@ -588,8 +600,10 @@ class Day:
             self.check("teleop: the keys drove the robot (turned > 45 deg, moved > 0.25 m)",
                        abs(turn) > math.radians(45) and dist > 0.25,
                        f"turned {math.degrees(turn):.0f} deg, moved {dist:.2f} m")
-            self.check("teleop: at rest within 1 s of the last key", at_rest is not None and at_rest <= 1.0,
-                       f"{at_rest} s")
+            # turtlebot_teleop_key stops ~key_timeout (0.3 s of wall time) after the last key, velocity_filter
+            # ramps from 0.3 m/s in 0.3 s; wall time is more simulated time above real time
+            self.check("teleop: at rest within 1.5 simulated s of the last key", at_rest is not None and at_rest <= 1.5,
+                       f"{at_rest if at_rest is None else round(at_rest, 2)} s")
             self.s.set_override(False)
             self.s.wait_sim(0.5)  # the locator takes the release
             self._goto_room("kitchen", st, "after the override")
