@@ -1,5 +1,5 @@
 # Florence robot middleware workspace.
-#   make demo   - set up, build, run the full system headless and write a report
+#   make demo   - set up, build, run the whole system headless through a scripted day, write a report
 #   make test   - set up, build, lint and run every test (what CI runs)
 # Both install what they need (Debian packages, pinned PyPI tools) idempotently.
 
@@ -21,7 +21,7 @@ PYTEST_ARGS ?=
 .PHONY: help setup build demo test lint bench clean
 
 help:
-	@echo "make demo   run the Florence system headless with a scripted scenario and a report"
+	@echo "make demo   run the whole Florence system headless through a scripted day, with a report"
 	@echo "make test   lint and run every test (CI runs this)"
 	@echo "make setup  install Debian and PyPI dependencies only"
 	@echo "make build  catkin build only"

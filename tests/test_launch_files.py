@@ -63,6 +63,45 @@ def test_launch_file_loads_and_nodes_resolve(path):
     assert not problems, "\n".join(problems)
 
 
+# Every node of the whole system (SPEC 3, issue 24), by name: what both top-level files start on the
+# robot and in simulation, and what only one of the two starts.
+SYSTEM_NODES = {
+    "/robot_state_publisher", "/joint_state_publisher", "/laser_filter_node", "/laser_combinator_node",
+    "/kinect_laser", "/cmd_vel_mux", "/collision_monitor", "/velocity_filter_node", "/map_server", "/amcl",
+    "/move_base", "/user_tracker_ni_node", "/filter_user_tracker_node", "/florence_locator", "/detect_users_node",
+    "/approach_me_map_node", "/follow_me_node", "/approach_me_node",
+}
+ROBOT_DRIVERS = {"/turtlebot_node", "/hokuyo_node", "/camera/driver", "/kinect_aux_node"}
+SIM_ONLY = {"/florence_sim", "/keepout_map_server"}
+SYSTEM_FILES = ["src/florence_bringup/launch/florence_bringup.launch", "src/user_test/launch/florence_user_test.launch"]
+
+
+@pytest.mark.parametrize("sim", [False, True], ids=["robot", "sim"])
+@pytest.mark.parametrize("path", SYSTEM_FILES)
+def test_the_whole_system_starts_every_node(path, sim):
+    """florence_bringup.launch and florence_user_test.launch: every node of the system once; the robot's
+    drivers without sim:=true, florence_sim (and the apartment's keep-out map, on simulated time) with it."""
+    config = load(ROOT / path, ["sim:=true"] if sim else [])
+    names = [n.namespace.rstrip("/") + "/" + n.name for n in config.nodes]
+    assert len(names) == len(set(names)), f"a node started twice: {sorted(names)}"
+    expected = SYSTEM_NODES | (SIM_ONLY if sim else ROBOT_DRIVERS)
+    assert set(names) == expected, f"missing {expected - set(names)}, unexpected {set(names) - expected}"
+    params = {p.key: p.value for p in config.params.values()}
+    assert params.get("/use_sim_time", False) is sim
+    assert params["/florence_locator/hotspots_file"].endswith("florence_locator/config/hotspots.yaml")
+
+
+def test_bringup_passes_the_simulation_args_through():
+    config = load(ROOT / SYSTEM_FILES[0], ["sim:=true", "x:=6.5", "y:=2.5", "yaw:=3.14", "real_time_factor:=2.5",
+                                           "seed:=7", "people:=/tmp/nobody.yaml", "hotspots_file:=/tmp/h.yaml"])
+    params = {p.key: p.value for p in config.params.values()}
+    assert (params["/florence_sim/x"], params["/florence_sim/y"], params["/florence_sim/yaw"]) == (6.5, 2.5, 3.14)
+    assert (params["/amcl/initial_pose_x"], params["/amcl/initial_pose_a"]) == (6.5, 3.14)
+    assert params["/florence_sim/real_time_factor"] == 2.5 and params["/florence_sim/seed"] == 7
+    assert params["/florence_sim/people_file"] == "/tmp/nobody.yaml"
+    assert params["/florence_locator/hotspots_file"] == "/tmp/h.yaml"
+
+
 def test_every_include_file_is_used():
     included = set()
     for path in TOP_LEVEL:

@@ -10,7 +10,6 @@ import contextlib
 import itertools
 import math
 import os
-import pty
 import signal
 import termios
 import threading
@@ -19,43 +18,22 @@ import time
 import pytest
 
 from florence_common.processes import ManagedProcess, wait_for
+from florence_common.pty_device import PtyKeyboard
 
 KEY_TIMEOUT = 0.3  # [s] the node's default ~key_timeout
 REPEAT = 1 / 30  # [s]
 
 
-class Keyboard:
-    """A pseudo-terminal: the node reads its slave side, the test types on its master side."""
+class Keyboard(PtyKeyboard):
+    """A pseudo-terminal: the node reads its slave side, the test types on its master side (and reads
+    the terminal's modes the node set)."""
 
     def __init__(self):
-        self.master, self.slave = pty.openpty()
+        super().__init__(repeat=1 / REPEAT)
         self.before = termios.tcgetattr(self.slave)
-
-    def hold(self, key, seconds, delay=0.5, until=None):
-        """Type ``key`` as a terminal does while it is held: once, again after the repeat ``delay``,
-        then 30 times a second, for ``seconds`` or until ``until()`` is true after the delay.
-        Returns the time (time.monotonic) of the last character sent."""
-        start = time.monotonic()
-        os.write(self.master, key.encode())
-        time.sleep(delay)
-        last = time.monotonic()
-        while time.monotonic() - start < seconds and not (until and until()):
-            os.write(self.master, key.encode())
-            last = time.monotonic()
-            time.sleep(REPEAT)
-        return last
-
-    def type(self, text):
-        os.write(self.master, text.encode())
 
     def modes(self):
         return termios.tcgetattr(self.slave)
-
-    def close(self):
-        for fd in (self.master, self.slave):
-            if fd is not None:
-                os.close(fd)
-        self.master = self.slave = None
 
 
 def start_teleop(ros_master, keyboard, *args):

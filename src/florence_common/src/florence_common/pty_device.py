@@ -133,3 +133,44 @@ class PtyDevice:
                 return
             except Exception:
                 log.exception("device core raised; the emulated device keeps running")
+
+
+class PtyKeyboard:
+    """A person at a terminal, for programs that read single keys from one (turtlebot_teleop_key):
+    the program gets the slave side of a pseudo-terminal as its standard input (``slave``), and
+    keys are typed on the master side as a terminal sends them while a key is held: once, again
+    after the terminal's repeat ``delay``, then ``repeat`` times a second."""
+
+    def __init__(self, repeat=30.0):
+        self.master, self.slave = pty.openpty()
+        self.repeat = repeat  # [1/s] the terminal's autorepeat rate
+
+    def type(self, text):
+        os.write(self.master, text.encode())
+
+    def hold(self, key, seconds, delay=0.5, until=None):
+        """Hold ``key`` for ``seconds`` [s, wall], or until ``until()`` is true after the first
+        ``delay``; returns the time (time.monotonic) of the last character sent."""
+        start = time.monotonic()
+        self.type(key)
+        time.sleep(delay)
+        last = time.monotonic()
+        while time.monotonic() - start < seconds and not (until and until()):
+            self.type(key)
+            last = time.monotonic()
+            time.sleep(1.0 / self.repeat)
+        return last
+
+    def close(self):
+        """Close both sides (to the program reading it: the terminal closed)."""
+        for fd in (self.master, self.slave):
+            if fd is not None:
+                with contextlib.suppress(OSError):
+                    os.close(fd)
+        self.master = self.slave = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
