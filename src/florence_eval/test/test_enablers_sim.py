@@ -118,11 +118,6 @@ def test_cancel_stops_within_0_2_s(sim):
     assert stopped - cancelled <= 0.2 + 0.3 + 0.3, f"at rest {stopped - cancelled:.2f} s after the cancel"
 
 
-@pytest.mark.xfail(strict=False, reason=(
-    "flaky product behaviour (issue 19): approach_me from the side failed in the full suite on a quiet machine "
-    "(load 3-6, 25 Nov) and passed alone; bench/enablers.py had 10 of 20 random approaches succeed. Not strict: "
-    "it cannot fail the suite until approach_me is fixed - see the issue's notes."
-))
 @pytest.mark.parametrize("name, p2r, r2p", [("front", 0.0, 0.0), ("side", math.pi / 2, 0.3),
                                             ("45 degrees", -math.pi / 4, -0.3)])
 def test_approaches_a_standing_person(sim, name, p2r, r2p):

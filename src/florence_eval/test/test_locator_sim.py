@@ -118,11 +118,6 @@ def test_goto_user_sitting_in_the_living_room_from_the_kitchen(stack):
     assert math.hypot(user.x - alice[0], user.y - alice[1]) < 0.3, (user, alice)
 
 
-@pytest.mark.xfail(strict=False, reason=(
-    "flaky product behaviour (issue 20): gotoUser to the bedroom failed in the merged suite on a quiet machine "
-    "(load 3-6, 25 Nov) and passed in other runs (move_base oscillating near the user, the search not "
-    "finishing). Not strict: it cannot fail the suite until gotoUser is fixed - see the issue's notes."
-))
 def test_set_user_pos_room_from_a_home_sensor_then_goto_user_finds_the_user_there(stack):
     session, procs = stack
     session.set_person("alice", **ALICE_BEDROOM)
@@ -134,11 +129,6 @@ def test_set_user_pos_room_from_a_home_sensor_then_goto_user_finds_the_user_ther
     goto_user_and_judge(session, procs, "bedroom")
 
 
-@pytest.mark.xfail(strict=False, reason=(
-    "flaky product behaviour (issue 20): gotoUser to the bedroom failed in the merged suite on a quiet machine "
-    "(load 3-6, 25 Nov) and passed in other runs (move_base oscillating near the user, the search not "
-    "finishing). Not strict: it cannot fail the suite until gotoUser is fixed - see the issue's notes."
-))
 def test_user_absent_aborts_after_a_full_turn(stack):
     from florence_eval import locator_metrics
 

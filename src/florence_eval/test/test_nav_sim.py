@@ -172,11 +172,6 @@ def test_every_pair_of_room_hotspots(nav):
     print("\n".join(legs))
 
 
-@pytest.mark.xfail(strict=False, reason=(
-    "flaky product behaviour (issue 21): failed once in the merged suite on a quiet machine (load 3-6, 25 Nov), "
-    "passed in the other runs. Not strict: it cannot fail the suite until navigation among people is fixed - "
-    "see the issue's notes."
-))
 def test_person_stepping_into_the_corridor_is_avoided(nav):
     import rospy
 

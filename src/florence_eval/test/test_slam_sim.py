@@ -83,11 +83,6 @@ def test_the_drive_builds_a_map_that_matches_the_world(mapped):
     assert scores["free_coverage"] >= 0.9, scores
 
 
-@pytest.mark.xfail(strict=False, reason=(
-    "flaky product behaviour (issue 22): slam_gmapping's trajectory error on the short tour was 0.19-0.26 m "
-    "RMS in all 3 full-suite runs of 25 Nov (load 3-20) and under 0.05 m in 3 runs of the module alone. Not strict: "
-    "it cannot fail the suite until the mapper is fixed - see the issue's notes."
-))
 def test_slam_gmapping_tracks_the_robot(mapped):
     """Its pose of the robot (map -> base_footprint) along the drive, against ground truth through the start."""
     from florence_eval.tour import interpolate_poses
