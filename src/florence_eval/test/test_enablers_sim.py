@@ -165,7 +165,8 @@ def test_the_monitor_stops_teleop_at_a_wall_and_lets_the_robot_turn_away(sim):
     "edge leaves the camera's view nearer than about 0.58 m (florence_sim: /kinect_scan then reads 0.575 m, "
     "the seat's far part, whatever the distance), that farther return clears the remembered edge, and "
     "follow_me creeps into the seat at 1-5 cm/s until the bumper touches (gap 0). Needs a 3-D memory or the "
-    "keep-out map in the monitor. Not strict: where the creep ends depends on timing (seen failing in every run checked)."))
+    "keep-out map in the monitor. Not strict: where the creep ends depends on timing "
+    "(seen failing in every run checked)."))
 def test_the_monitor_stops_follow_me_at_a_chair(sim):
     from florence_eval import nav_metrics
 
