@@ -105,11 +105,7 @@ def ros_run(args):
         rospy.init_node("bench", anonymous=False, disable_signals=True)
         tf_buffer = tf2_ros.Buffer(cache_time=rospy.Duration(60.0))
         listener = tf2_ros.TransformListener(tf_buffer)
-        session = MappingSession(tf_buffer)
-        from std_msgs.msg import Float64
-
-        updates = []  # slam_gmapping's ~entropy comes once per processed scan
-        entropy = rospy.Subscriber("/slam_gmapping/entropy", Float64, lambda m: updates.append(m.data))
+        session = MappingSession(tf_buffer)  # counts slam_gmapping's processed scans (~entropy)
         if not session.wait_ready(180.0):
             raise SystemExit(f"florence_sim or slam_gmapping did not come up:\n{stack.output()}")
         pid = node_pid(master.uri, "/slam_gmapping")
@@ -125,7 +121,6 @@ def ros_run(args):
                                progress=progress)
         cpu, sim_s, wall_s = cpu_seconds(pid) - cpu0, session.sim_now() - sim0, time.monotonic() - wall0
         memory = memory_kib(pid)
-        entropy.unregister()
         saved = save_map(master, RESULTS / "slam_map")
         print(f"map_saver wrote {saved}")
         built = load_map(saved)
@@ -152,7 +147,7 @@ def ros_run(args):
             "estimates": int(ok.sum()), "alignment": {"theta_deg": math.degrees(alignment[0]),
                                                       "x_m": float(alignment[1][0]), "y_m": float(alignment[1][1])},
             "cpu_s_per_sim_s": cpu / sim_s, "slam_cpu_s": cpu, "sim_time_s": sim_s, "wall_time_s": wall_s,
-            "rtf_achieved": sim_s / wall_s, "updates": len(updates),
+            "rtf_achieved": sim_s / wall_s, "updates": session.processed,
             "memory_kib": memory, "complete": driver.done, "waited_for_people_s": driver.waited,
             "sidesteps": driver.sidesteps, "collisions_mapping": session.collisions, "particles": args.particles,
             "map_file": saved, "map_cells": [int(built.width), int(built.height)],
