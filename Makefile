@@ -42,8 +42,9 @@ demo: build
 lint: setup
 	ruff check $(WS)
 
+# One pytest process (one private rosmaster) per ROS test module: see florence_harness/isolated.py.
 test: build lint
-	$(SOURCE) && /usr/bin/python3 -m pytest $(PYTEST_ARGS)
+	$(SOURCE) && /usr/bin/python3 -m florence_harness.isolated $(PYTEST_ARGS)
 
 bench: build
 	$(SOURCE) && for b in $(WS)/bench/*.py; do /usr/bin/python3 "$$b" || exit 1; done

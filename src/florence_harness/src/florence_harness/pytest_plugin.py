@@ -2,7 +2,9 @@
 
 Fixtures:
     ros_master (session): a private rosmaster on a free port. The test process's
-        environment points at it, so rospy in the test process uses it too.
+        environment points at it, so rospy in the test process uses it too. `make test`
+        runs each ROS test module in its own process (florence_harness.isolated), so a
+        session here is one module.
     rospy_node (session): this test process as a rospy node (initialised once;
         rospy cannot re-initialise in one process).
     tf_buffer (session): a tf2_ros.Buffer fed by a TransformListener.
