@@ -129,7 +129,8 @@ def run(args):
     failures = []
     for group, rc, seconds, (tests, failed, skipped, names) in results:
         status = "ok" if rc == 0 else f"FAILED (exit {rc})"
-        print(f"{status:16s} {seconds:7.1f} s  {tests:5d} tests  {failed:3d} failed  {skipped:3d} skipped  {group.name}")
+        print(f"{status:16s} {seconds:7.1f} s  {tests:5d} tests  {failed:3d} failed  {skipped:3d} skipped  "
+              f"{group.name}")
         failures.extend(names or ([] if rc == 0 else [f"{group.name} (exit {rc}, see its output)"]))
     total = sum(r[3][0] for r in results)
     print(f"{len(results)} processes, {total} tests, {len(failures)} failed, {time.monotonic() - start:.0f} s")
