@@ -21,6 +21,8 @@ NODE = textwrap.dedent("""
         def __init__(self):
             self.p = read_params(TABLE)
             rospy.loginfo("toy: up at %.1f Hz", self.p.rate)
+            # run() registers shutdown() once the constructor returned: say so a moment later
+            rospy.Timer(rospy.Duration(0.5), lambda _e: print("toy: spinning", flush=True), oneshot=True)
 
         def shutdown(self):
             print("toy: shutdown hook ran", flush=True)
@@ -46,7 +48,9 @@ def test_bad_parameter_exits_1_naming_it(ros_master):
 def test_good_parameter_spins_and_runs_shutdown_hook(ros_master):
     proc = _start(ros_master, "_rate:=5.0")
     try:
-        wait_for(lambda: "up at 5.0 Hz" in proc.output(), 30, what="the toy node up")
+        # (a SIGINT while the constructor still runs ends the node before its hook is registered)
+        wait_for(lambda: "toy: spinning" in proc.output(), 30, what="the toy node spinning")
+        assert "up at 5.0 Hz" in proc.output()
     finally:
         proc.stop()
     assert "shutdown hook ran" in proc.output()
