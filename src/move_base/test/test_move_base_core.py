@@ -453,3 +453,42 @@ def test_while_waiting_a_turn_toward_the_people_is_not_going_on():
     assert not _goes_on((0.0, 0.0, 0.8), (0.0, 0.0, 0.0), plan_ahead)
     assert _goes_on((0.0, 0.0, 0.8), (0.0, 0.0, 0.0), plan_behind)  # it must turn first
     assert _goes_on((0.0, 0.0, 0.8), (0.0, 0.0, 0.0), plan_ahead[:1])  # at the goal: its yaw
+
+
+def test_flipping_between_blocked_and_free_without_progress_still_times_out():
+    """A person just at min_person_distance: the way looks free for a moment, then blocked again, and the
+    robot does not get on. The waits add up (ROS-style patience would restart every flip): after
+    person_wait_timeout of waiting in all, the recoveries run and the goal aborts with the reason."""
+    people = FakePeople(lambda now: now >= 1.0 and (now - 1.0) % 1.6 < 1.2)  # blocked 1.2 s, free 0.4 s
+    recs = [FakeRecovery("conservative_reset")]
+    core = MoveBaseCore(core_params(planner_patience=1.0, controller_patience=2.0, person_wait_timeout=10.0,
+                                    max_recovery_restarts=2), WaitingPlanner(people),
+                        GivingWayController(people, reached_after=None), recs, people=people)
+    core.set_goal((5.0, 0.0, 0.0), 0.0, POSE)
+    outcome, text, t_end, results = run_people(core, people, n=1000)
+    assert outcome == "aborted", [(now, state) for now, state, _ in results[-20:]]
+    assert "people stood in the way for 10 s" in text, text
+    went_on = sum(1 for i in range(1, len(results)) if results[i - 1][1] == "WAITING" and results[i][1] != "WAITING")
+    assert went_on >= 3  # it did flip
+    assert recs[0].started >= 1
+    assert t_end < 10.0 / (1.2 / 1.6) + 10.0
+
+
+def test_progress_between_waits_starts_the_wait_afresh():
+    """Blocked 5 s out of every 7, person_wait_timeout 8 s: while the robot gets 0.5 m (oscillation_distance)
+    nearer the goal between the waits, no wait adds up to the timeout and the robot arrives."""
+    people = FakePeople(lambda now: now % 7.0 < 5.0)
+    ctrl = GivingWayController(people, reached_after=None)
+    core = MoveBaseCore(core_params(person_wait_timeout=8.0, oscillation_distance=0.5), WaitingPlanner(people),
+                        ctrl, [FakeRecovery("conservative_reset")], people=people)
+    core.set_goal((20.0, 0.0, 0.0), 0.0, POSE)
+    x, states = 0.0, []
+    for i in range(300):  # 60 s at 5 Hz, 0.3 m/s while controlling
+        now = i * 0.2
+        people.now = now
+        r = core.cycle(now, (x, 0.0, 0.0))
+        assert r.outcome is None, r.text
+        states.append(core.state)
+        if core.state == CONTROLLING:
+            x += 0.3 * 0.2
+    assert states.count("WAITING") > 100 and x > 3.0

@@ -80,8 +80,8 @@ PARAMS = ParamTable(
           "the goal is aborted (-1: no limit, ROS)", ge=-1),
     Param("person_wait_timeout", float, 0.0, "Florence: when people stand in the way (no plan, but one on the "
           "maps alone; or no trajectory that keeps min_person_distance), wait this long for them, replanning "
-          "every cycle, before the recoveries run; the robot goes on as soon as the way is free (0: no waiting, "
-          "ROS)", unit="s", ge=0.0),
+          "every cycle, before the recoveries run; the robot goes on as soon as the way is free, and the waits "
+          "add up until it comes oscillation_distance nearer the goal (0: no waiting, ROS)", unit="s", ge=0.0),
     Param("give_way_after", float, 0.0, "Florence: while waiting, after this long move to the nearest place out of "
           "the way of the people who block it, then wait there (a person may be waiting for the robot to "
           "leave their way; 0: never)", unit="s", ge=0.0),
@@ -122,8 +122,10 @@ class _GoalState:
     last_plan_time: float = -math.inf
     have_plan: bool = False
     reasons: dict = field(default_factory=dict)
-    wait_since: float | None = None  # [s] when people began to stand in the way (None: not waiting)
-    waited_out: bool = False  # waited person_wait_timeout since the last valid command
+    wait_since: float | None = None  # [s] when this wait began, less the time waited before it (None: not waiting)
+    waited: float = 0.0  # [s] waited for people since the last progress, before this wait
+    wait_goal_distance: float | None = None  # [m] from the goal when the robot first waited since the last progress
+    waited_out: bool = False  # waited person_wait_timeout since the last progress
     giving_way: tuple | None = None  # the pose the robot drives to, out of the people's way
     gave_way: int = 0  # give-way moves in this wait
     wait_trigger: str = PLANNING_R
@@ -212,6 +214,7 @@ class MoveBaseCore:
                                    f"({p.controller_patience:.1f} s): {why}")
             return CycleResult(cmd=ZERO, text=g.reasons[CONTROLLING_R])
 
+        self._progress(pose)
         if g.state == WAITING:
             g.last_oscillation_reset = now  # standing for people is not oscillating
             g.oscillation_pose = (pose[0], pose[1])
@@ -286,8 +289,7 @@ class MoveBaseCore:
         ok, cmd, reason = self.controller.compute_velocity(tuple(pose))
         if ok:
             g.last_valid_control = now
-            g.wait_since = None
-            g.waited_out = False
+            self._leave_wait(now)
             if g.trigger == CONTROLLING_R:
                 self._restart_recoveries(g)
             result.cmd = tuple(cmd)
@@ -345,8 +347,11 @@ class MoveBaseCore:
         if not why:
             return None
         if g.wait_since is None:
-            g.wait_since = now
-            g.gave_way = 0
+            # waiting goes on from what was waited since the last progress: a robot that flips
+            # between "the way is free" and "blocked" in front of the same person times out all the same
+            g.wait_since = now - g.waited
+            if g.wait_goal_distance is None:
+                g.wait_goal_distance = math.hypot(g.goal[0] - pose[0], g.goal[1] - pose[1])
             log.info("waiting for people: %s", why)
         g.state = WAITING
         g.wait_trigger = trigger
@@ -391,7 +396,7 @@ class MoveBaseCore:
             if ok:
                 g.planning_retries = 0
                 g.last_valid_plan = g.last_valid_control = g.last_oscillation_reset = now
-                g.wait_since = None
+                self._leave_wait(now)
                 g.state = CONTROLLING
                 log.info("the way is free after %.1f s: going on", waited)
                 return CycleResult(cmd=tuple(cmd), new_plan=plan, text="the way is free: going on")
@@ -399,7 +404,7 @@ class MoveBaseCore:
         if not why:  # stuck, but not for people any more: ROS's patience from now
             g.state = CONTROLLING if plan.ok else PLANNING
             g.last_valid_plan = g.last_valid_control = now
-            g.wait_since = None
+            self._leave_wait(now)
             return CycleResult(cmd=ZERO, text=reason or plan.reason)
         g.reasons[g.wait_trigger] = why
         if p.give_way_after > 0.0 and waited >= p.give_way_after * (g.gave_way + 1) and g.gave_way < 3:
@@ -413,6 +418,23 @@ class MoveBaseCore:
                     log.info("giving way: to (%.2f, %.2f)", target[0], target[1])
                     return CycleResult(cmd=ZERO, text="giving way to people")
         return CycleResult(cmd=ZERO, text=f"waiting: {why}")
+
+    def _leave_wait(self, now):
+        """Out of WAITING (or past a cycle without waiting): keep the time waited until progress."""
+        g = self.g
+        if g.wait_since is not None:
+            g.waited = now - g.wait_since
+            g.wait_since = None
+
+    def _progress(self, pose):
+        """The robot came oscillation_distance nearer the goal than where it first waited for people:
+        the next wait starts from zero (and may run person_wait_timeout again)."""
+        g = self.g
+        if g.wait_goal_distance is None or g.wait_since is not None:
+            return
+        to_goal = math.hypot(g.goal[0] - pose[0], g.goal[1] - pose[1])
+        if to_goal <= g.wait_goal_distance - self.params.oscillation_distance:
+            g.waited, g.wait_goal_distance, g.waited_out, g.gave_way = 0.0, None, False, 0
 
     @staticmethod
     def _restart_recoveries(g):
