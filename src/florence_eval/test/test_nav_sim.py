@@ -191,7 +191,7 @@ def test_person_stepping_into_the_corridor_is_avoided(nav):
     session.send(*target)
     # the person steps in once the robot is on its way through the door
     wait_for(lambda: session.latest()[2] > 5.3, 120, what="the robot at the living room door")
-    spec = "{path: [[4.3, 5.85], [6.0, 6.1], [6.6, 7.6]], speed: 0.4, mode: once}"
+    spec = "{path: [[4.3, 5.85], [6.6, 6.15], [6.6, 7.6]], speed: 0.4, mode: once}"
     assert call_sim("set_person", SetPerson, id="visitor", spec=spec).success
     t_in = session.sim_now()
     try:
