@@ -337,7 +337,9 @@ def test_keepout_map_of_another_size_is_placed_and_warned_about(rospy_node, publ
         with cm.lock:
             assert cm.costmap.cost_at(0.55, 0.55) == 254
             assert cm.costmap.cost_at(0.7, 0.55) < 254
-        assert "keepout_geometry" in cm._warned  # another size and resolution than the map: said so
+        # another size and resolution than the map: said so (by the subscriber's thread, just after it placed
+        # the map: wait for it)
+        wait_for(lambda: "keepout_geometry" in cm._warned, 10.0, what="the warning about the keep-out map's size")
         bad = OccupancyGrid()
         bad.info.width, bad.info.height, bad.info.resolution = 4, 4, float("nan")
         bad.data = [0] * 16

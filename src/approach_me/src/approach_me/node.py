@@ -40,6 +40,7 @@ from sensor_msgs.msg import LaserScan
 
 from approach_me.cfg import ApproachMeConfig
 from approach_me.control import DONE, GAINS, Approacher, Request
+from approach_me.estimate import StandingPlace
 from approach_me.msg import ApproachMeAction, ApproachMeFeedback, ApproachMeResult
 from florence_common import pose as pose2d
 from florence_common.params import FRAME, Param, ParamTable
@@ -85,6 +86,11 @@ PARAMS = ParamTable(
           ge=0),
     Param("closeup_radius", float, 0.25, "how near the person's place a leg pair must be to confirm them", unit="m",
           gt=0),
+    Param("far_range", float, 1.0, "a standing person's place is the mean of the sightings from at least this far "
+          "(nearer, the Kinect cuts their torso and one leg may hide the other; approach_me.estimate)", unit="m",
+          ge=0),
+    Param("still_radius", float, 0.15, "nearer sightings this close to the place leave it; farther ones for 0.5 s "
+          "mean the person moved and start it over", unit="m", gt=0),
 )
 
 
@@ -169,6 +175,7 @@ class ApproachMeNode(PersonBehaviour):
             self.started = rospy.get_time()
             self.progress = (math.inf, self.started)  # (least distance left [m], when)
             self.last_step = None
+            self.place, self.place_seen = StandingPlace(p.far_range, p.still_radius), -math.inf
         rospy.loginfo(LOG + "approaching person %d at (%.2f, %.2f) in %s: %.2f m, p2r %.2f rad, r2p %.2f rad",
                       self.person.pid, *self.person.xy, self.frame, req.distance, req.p2r, req.r2p)
         return None
@@ -200,12 +207,16 @@ class ApproachMeNode(PersonBehaviour):
         if robot is None:
             return None
         self._confirm_closeup(person, robot, now)
+        if person.seen_at > self.place_seen or self.place.xy is None:
+            self.place_seen = person.seen_at
+            self.place.update(person.xy, robot[:2], person.seen_at)
+        xy = self.place.xy
         ending = self._ending(person, now)
         if ending is not None:
             return ending
-        out = self.controller.step(robot, person.xy)
-        self.last_step = (out, robot, person.xy)
-        self.server.publish_feedback(ApproachMeFeedback(*self.local(robot, person.xy)))
+        out = self.controller.step(robot, xy)
+        self.last_step = (out, robot, xy)
+        self.server.publish_feedback(ApproachMeFeedback(*self.local(robot, xy)))
         if out.phase == DONE:
             self.drive(0.0, 0.0, out.text)
             return succeeded(f"reached: {out.position_error:.3f} m from the position, {abs(out.heading_error):.3f} "
