@@ -126,6 +126,8 @@ def test_approaches_a_standing_person(sim, name, p2r, r2p):
     result = session.approach_trial((2.6, 2.1, -0.1), "alice", (4.2, 1.9), RED, 0.6, p2r, r2p)
     result.pop("robot_track")
     info = f"{name}: {result}{detail(session, proc)}"
+    print(f"{name}: {result['state']}, {result['position_error_m']:.3f} m and {result['heading_error_rad']:.3f} rad "
+          f"off by ground truth, least distance {result['least_distance_m']:.2f} m")
     assert result["state"] == "SUCCEEDED", info
     assert result["position_error_m"] <= 0.12 and result["heading_error_rad"] <= 0.12, info
     assert result["collisions"] == 0 and result["least_distance_m"] > 0.5, info
