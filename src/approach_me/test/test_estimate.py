@@ -1,7 +1,6 @@
 """StandingPlace: a standing person's place from the far sightings; close ones only keep it."""
 
 import pytest
-
 from approach_me.estimate import StandingPlace
 
 pytestmark = pytest.mark.unit
