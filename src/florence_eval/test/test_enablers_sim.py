@@ -20,7 +20,7 @@ from florence_common.processes import wait_for
 
 pytestmark = [pytest.mark.scenario, pytest.mark.slow]
 
-RTF = 2.0
+RTF = 1.0  # real time: the monitor plans with wall-time latencies (0.2 s), which 2x doubles in simulated time
 LOST_TIMEOUT = 5.0  # [s] follow_me's ~lost_timeout here (10 s by default)
 RED, BLUE = [0.85, 0.1, 0.1], [0.1, 0.3, 0.85]
 # living room -> corridor through the door at x 2.0..2.9 (y 5.5), then east along the corridor

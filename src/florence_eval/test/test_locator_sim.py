@@ -5,8 +5,10 @@ sitting in the living room from the kitchen, setUserPosRoom("bedroom") from a ho
 gotoUser finding the user there, the user absent (a full turn, ABORTED), manualOverride stopping
 the robot mid-route and teleop driving it then.
 
-One stack for the module (its start-up costs most); the tests run in file order, each starting where
-the last left the robot. The long variants (random placements) are bench/locator.py's.
+One stack for the module (its start-up costs most); the tests run in file order. A test that needs the
+robot somewhere carries it there (florence_sim and amcl told), so one that fails leaves the next ones
+their own start. Real time (RTF 1): at 2x, move_base's 5 Hz cycle and the hops between nodes take twice
+as much simulated time as on the robot. The long variants (random placements) are bench/locator.py's.
 
 (Here, not in florence_locator's tests: florence_eval depends on florence_locator.)"""
 
@@ -21,6 +23,7 @@ from florence_common.processes import wait_for
 pytestmark = [pytest.mark.scenario, pytest.mark.slow]
 
 START = (6.5, 7.7, 1.5707963)  # the bathroom's hotspot
+RTF = 1.0
 # the tour ends in the kitchen, where the gotoUser test starts
 TOUR = ["bathroom", "bedroom", "corridor", "living_room", "kitchen"]
 HOTSPOT_TOL = 0.35  # [m] move_base's xy_goal_tolerance 0.25 + amcl's error
@@ -40,7 +43,7 @@ def stack(ros_master, rospy_node, tf_buffer):
         if master.hasParam(stale):
             master.deleteParam(stale)
     tf_buffer.clear()
-    procs = launch_stack(ros_master, START, real_time_factor=2.0, seed=3)
+    procs = launch_stack(ros_master, START, real_time_factor=RTF, seed=3)
     session = LocatorSession()
     try:
         session.wait_ready()
@@ -53,6 +56,11 @@ def stack(ros_master, rospy_node, tf_buffer):
         if not had_sim_time and master.hasParam("/use_sim_time"):
             master.deleteParam("/use_sim_time")
         tf_buffer.clear()
+
+
+def hotspot(session, room):
+    spot = session.call("getHotspot", room)
+    return spot.x, spot.y, spot.phi
 
 
 def dump(procs):
@@ -109,6 +117,7 @@ def test_goto_room_reaches_every_room_and_get_robot_pos_room_agrees(stack):
     "seated person faces"))
 def test_goto_user_sitting_in_the_living_room_from_the_kitchen(stack):
     session, procs = stack
+    session.place_robot(hotspot(session, "kitchen"))
     assert session.call("getRobotPosRoom").room == "kitchen"
     assert session.call("setUserPosRoom", "living_room").success  # a home sensor: the user is there
     result, _nearest, detail = goto_user_and_judge(session, procs, "living_room")
@@ -133,6 +142,8 @@ def test_user_absent_aborts_after_a_full_turn(stack):
     from florence_eval import locator_metrics
 
     session, procs = stack
+    session.place_robot(hotspot(session, "bedroom"))
+    assert session.call("setUserPosRoom", "bedroom").success
     session.remove_people()
     session.wait_sim(1.0)
     t0 = session.sim_now()
@@ -152,6 +163,7 @@ def test_manual_override_stops_the_robot_within_a_second_and_teleop_drives_it(st
     from florence_eval import locator_metrics
 
     session, procs = stack
+    session.place_robot(hotspot(session, "bedroom"))
     assert session.call("gotoRoom", "kitchen").success
     # mid-route: driving at speed, not in a sharp turn (velocity_filter brakes a turn at 1 rad/s^2: a turn at
     # 1.5 rad/s takes 1.5 s to stop whoever asks)
