@@ -129,6 +129,9 @@ def test_goto_user_sitting_in_the_living_room_from_the_kitchen(stack):
 
 def test_set_user_pos_room_from_a_home_sensor_then_goto_user_finds_the_user_there(stack):
     session, procs = stack
+    # from the living room's hotspot (the last test leaves the robot by the coffee table beside where alice sat,
+    # from where move_base twice could not get away: a defect of its own, noted on issue 20, not this test's)
+    session.place_robot(hotspot(session, "living_room"))
     session.set_person("alice", **ALICE_BEDROOM)
     res = session.call("setUserPosRoom", "bedroom")  # the user's pose was in the living room: moved
     assert res.success and "hotspot of bedroom" in res.message, res.message
