@@ -166,7 +166,9 @@ def test_manual_override_stops_the_robot_within_a_second_and_teleop_drives_it(st
     from florence_eval import locator_metrics
 
     session, procs = stack
-    session.place_robot(hotspot(session, "bedroom"))
+    # from the living room (open floor; carried to the bedroom's hotspot, between the bed and the wall, move_base
+    # once found no trajectory that did not collide: noted on issue 20)
+    session.place_robot(hotspot(session, "living_room"))
     assert session.call("gotoRoom", "kitchen").success
     # mid-route: driving at speed, not in a sharp turn (velocity_filter brakes a turn at 1 rad/s^2: a turn at
     # 1.5 rad/s takes 1.5 s to stop whoever asks)
