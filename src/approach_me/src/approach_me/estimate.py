@@ -36,17 +36,16 @@ class StandingPlace:
         if math.dist(robot_xy, xy) >= self.far_range:
             if self.far == 0:  # the first far sighting replaces the near ones
                 self.xy, self.near = xy, 0
-            self._add(xy, "far")
+            self.far = self._add(xy, self.far)
         elif self.far == 0:
-            self._add(xy, "near")
+            self.near = self._add(xy, self.near)
         return self.xy
 
-    def _add(self, xy, kind):
-        n = min(getattr(self, kind), self.window - 1)
-        x = (self.xy[0] * n + xy[0]) / (n + 1)
-        y = (self.xy[1] * n + xy[1]) / (n + 1)
-        self.xy = (x, y)
-        setattr(self, kind, n + 1)
+    def _add(self, xy, n):
+        """Fold ``xy`` into the mean of ``n`` sightings (a running mean over at most window); the new count."""
+        n = min(n, self.window - 1)
+        self.xy = ((self.xy[0] * n + xy[0]) / (n + 1), (self.xy[1] * n + xy[1]) / (n + 1))
+        return n + 1
 
     def _restart(self, xy, robot_xy):
         self.xy, self.moved_since = xy, None
