@@ -80,6 +80,14 @@ def dump(stack):
     return f"\n----- stack output (tail) -----\n{stack.output(8000)}"
 
 
+def waits(stack):
+    """move_base's lines about waiting for people, its state changes and its recoveries."""
+    keys = ("wait", "the way is free", "giving way", "gave way", "recovery", "->", "planning failed", "new goal")
+    lines = [line for line in stack.output(400000).splitlines()
+             if "move_base:" in line and any(k in line for k in keys)]
+    return "\n----- move_base: waits, states, recoveries -----\n" + "\n".join(lines[-80:])
+
+
 def call_sim(name, srv_class, **fields):
     import rospy
 
@@ -155,19 +163,42 @@ def test_table_top_stays_in_the_local_costmap_when_the_robot_is_close(nav, tf_bu
     assert session.collisions == 0
 
 
+def estimate(tf_buffer):
+    """amcl's estimate of the robot's pose (x, y, yaw) in map (tf map -> base_footprint)."""
+    import rospy
+
+    from florence_common_ros.convert import to_xyyaw
+
+    return to_xyyaw(tf_buffer.lookup_transform("map", "base_footprint", rospy.Time(0), rospy.Duration(10)))
+
+
+def off(pose, ref):
+    """'d m / e rad off': how far ``pose`` (x, y, yaw) is from ``ref``, the yaw signed (ref - pose)."""
+    return f"{math.hypot(pose[0] - ref[0], pose[1] - ref[1]):.2f} m / {angles.diff(ref[2], pose[2]):+.2f} rad off"
+
+
 @pytest.mark.slow
-def test_every_pair_of_room_hotspots(nav):
+def test_every_pair_of_room_hotspots(nav, tf_buffer):
+    """Every pair of room hotspots once; each leg judged where the robot comes to rest (what a user
+    sees: it may still be turning when move_base reports SUCCEEDED), against ground truth. amcl's own
+    error there is reported too, to tell a localisation error from a controller one."""
     session, stack = nav
     legs = []
     for a, b in itertools.pairwise(CIRCUIT):
         x, y, yaw = hotspot(b)
         state, text, took, length = session.go(x, y, yaw, sim_timeout=150.0)
+        at_end, est_end = session.latest(), estimate(tf_buffer)
+        still = session.wait_still()
         here = session.latest()
         err = math.hypot(here[1] - x, here[2] - y)
         yaw_err = abs(angles.diff(here[3], yaw))
-        legs.append(f"{a} -> {b}: {state} in {took:.1f} s, {length:.1f} m, off by {err:.2f} m / {yaw_err:.2f} rad")
+        est = estimate(tf_buffer)
+        legs.append(f"{a} -> {b}: {state} in {took:.1f} s, {length:.1f} m, at rest {off(here[1:4], (x, y, yaw))} "
+                    f"(amcl {off(est, here[1:4])}); at the result {off(at_end[1:4], (x, y, yaw))} "
+                    f"at {at_end[4]:.2f} m/s, {at_end[5]:+.2f} rad/s (amcl {off(est_end, (x, y, yaw))})")
         report = "\n".join(legs)
         assert state == "SUCCEEDED", f"{report}\n{text}{dump(stack)}"
+        assert still, f"{report}\nthe robot did not come to rest{dump(stack)}"
         assert err < XY_TOL and yaw_err < YAW_TOL, f"{report}{dump(stack)}"
         assert session.collisions == 0, f"bumped into something at {session.collision_poses}:\n{report}"
     print("\n".join(legs))
@@ -332,9 +363,10 @@ def test_doorway_blocked_for_good_ends_in_recoveries_then_aborted(nav):
     try:
         x, y, yaw = hotspot("bathroom")
         state, text, took, _ = session.go(x, y, yaw, sim_timeout=300.0)
+        print(f"{state} after {took:.0f} s: {text}{waits(stack)}")
         assert state == "ABORTED", f"{state} after {took:.0f} s: {text}{dump(stack)}"
         assert took > 60.0, f"aborted after {took:.0f} s, before person_wait_timeout: {text}{dump(stack)}"
-        assert "people stood in the way" in text, text
+        assert "people stood in the way" in text, f"{text}{waits(stack)}"
         # which guard ends it depends on where the robot stops: the planner finds no way round the
         # person, the controller no trajectory, or the robot stays put past oscillation_timeout
         assert any(f"{what} even after executing recovery behaviors" in text for what in (

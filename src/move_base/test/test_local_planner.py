@@ -65,6 +65,90 @@ def test_goal_reached_within_both_tolerances():
     assert not lp.is_goal_reached()
 
 
+def _reached_while_turning(lp, yaw, vth, goal_yaw=0.0):
+    """(reached, command) of one cycle at the goal position, ``yaw`` [rad], turning at ``vth`` [rad/s]."""
+    cm = Costmap2D(100, 100, 0.1)
+    plan = line_plan(3.0, 5.0, 5.0, 5.0, yaw_end=goal_yaw)
+    lp.set_plan(plan)
+    ok, cmd, _ = lp.compute_velocity(cm, (5.0, 5.0, yaw), (0.0, 0.0, vth), plan)
+    assert ok
+    return lp.is_goal_reached(), cmd
+
+
+def test_ros_rule_reaches_inside_the_tolerance_whatever_the_turn():
+    # 0.25 rad short and turning at 1 rad/s: ROS stops here and the robot coasts 0.5 rad on,
+    # to 0.25 rad past the goal yaw
+    assert _reached_while_turning(planner(), -0.25, 1.0)[0]
+
+
+@pytest.mark.parametrize(("yaw", "vth", "reached", "turn"), [
+    (-0.70, 1.0, False, False),  # 0.7 - (0.2 + 0.5) = 0.0: a zero command now leaves it on the goal yaw
+    (-0.80, 1.0, False, False),  # 0.1 short once it stands: within half the tolerance, stop
+    (-1.20, 1.0, False, True),   # 1.2 - 0.7 = 0.5 rad short: turn on
+    (-0.25, 1.0, False, False),  # 0.45 rad past even if it stops now: stop, and turn back at rest
+    (0.10, 1.0, False, False),   # 0.1 past and turning away from the goal: stop
+    (0.10, -1.0, False, False),  # 0.1 past, turning back toward the goal: 0.6 past the other way: stop
+    (-0.20, 0.05, True, False),  # at rest (below rot_stopped_velocity): ROS's rule, within 0.3 rad
+    (0.20, 0.05, True, False),
+    (-0.40, 0.05, False, True),
+])
+def test_coast_to_goal_yaw_judges_where_a_zero_command_leaves_the_robot(yaw, vth, reached, turn):
+    lp = planner(coast_to_goal_yaw=True, command_lag=0.2, acc_lim_th=1.0)
+    got, cmd = _reached_while_turning(lp, yaw, vth)
+    assert got is reached
+    assert (cmd[2] != 0.0) is turn
+
+
+def test_coast_to_goal_yaw_counts_the_pose_age():
+    # 1.0 rad short at 1 rad/s: 0.5 rad of braking and 0.2 rad of command lag leave it 0.3 rad short:
+    # turn on; with the pose 0.2 s old as well, 0.1 rad short: stop
+    lp = planner(coast_to_goal_yaw=True, command_lag=0.2, acc_lim_th=1.0)
+    assert _reached_while_turning(lp, -1.0, 1.0)[1][2] > 0.0
+    lp = planner(coast_to_goal_yaw=True, command_lag=0.2, acc_lim_th=1.0)
+    lp.pose_age = 0.2
+    assert _reached_while_turning(lp, -1.0, 1.0)[1][2] == 0.0
+
+
+def _settle(coast, yaw0, w0):
+    """Closed loop at 5 Hz from ``yaw0`` [rad] (goal yaw 0) turning at ``w0`` [rad/s]: a base that acts
+    on a command a control period late and changes its turn rate by at most 1 rad/s^2
+    (velocity_filter). Returns ((yaw, turn rate) when the goal was reached, the yaw it stands at)."""
+    lp = planner(coast_to_goal_yaw=coast, command_lag=0.2, acc_lim_th=1.0)
+    cm = Costmap2D(100, 100, 0.1)
+    plan = line_plan(3.0, 5.0, 5.0, 5.0, yaw_end=0.0)
+    lp.set_plan(plan)
+    yaw, w, acting, pending, reached_at = yaw0, w0, w0, w0, None
+    for _ in range(100):
+        for _ in range(10):  # one control period (0.2 s) of the base, toward the command it acts on
+            w += float(np.clip(acting - w, -0.02, 0.02))
+            yaw += w * 0.02
+        acting = pending  # the command of the last cycle reaches the base now
+        if reached_at is None:
+            ok, c, _ = lp.compute_velocity(cm, (5.0, 5.0, yaw), (0.0, 0.0, w), plan)
+            assert ok
+            pending = c[2]
+            if lp.is_goal_reached():
+                reached_at = (yaw, w)
+        else:
+            pending = 0.0
+            if abs(w) < 1e-9 and acting == 0.0:
+                break
+    assert reached_at is not None
+    return reached_at, yaw
+
+
+@pytest.mark.parametrize(("yaw0", "w0"), [(-1.5, 1.4), (1.4, -1.3)])
+def test_ros_rule_stands_beyond_the_yaw_tolerance_after_a_fast_turn(yaw0, w0):
+    (_, w_at), yaw_end = _settle(False, yaw0, w0)
+    assert abs(w_at) >= 0.9 and abs(yaw_end) > 0.3  # reached while turning fast; it coasts on past
+
+
+@pytest.mark.parametrize(("yaw0", "w0"), [(-1.5, 1.4), (-1.2, 1.0), (-2.5, 1.5), (1.4, -1.3), (-0.6, 0.0)])
+def test_coast_to_goal_yaw_settles_inside_the_tolerance(yaw0, w0):
+    (yaw_at, w_at), yaw_end = _settle(True, yaw0, w0)
+    assert abs(w_at) <= 0.1 and abs(yaw_at) <= 0.3 and abs(yaw_end) <= 0.3  # reached at rest, and stays
+
+
 def test_outside_xy_tolerance_drives_on():
     cm = Costmap2D(100, 100, 0.1)
     lp = planner()

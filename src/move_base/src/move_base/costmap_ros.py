@@ -112,6 +112,7 @@ class Costmap2DROS:
         self.global_frame = p.global_frame
         self.base_frame = p.robot_base_frame
         self.transform_tolerance = p.transform_tolerance
+        self.robot_pose_age = 0.0  # [s] of the last pose get_robot_pose returned
         self.update_frequency = p.update_frequency
         self.publish_frequency = p.publish_frequency
         self.static_map = p.static_map
@@ -231,7 +232,8 @@ class Costmap2DROS:
     # --- robot pose ----------------------------------------------------------------------------
     def get_robot_pose(self):
         """(x [m], y [m], yaw [rad]) of robot_base_frame in global_frame, or None (no transform,
-        or older than transform_tolerance; a throttled warning says which)."""
+        or older than transform_tolerance; a throttled warning says which). ``robot_pose_age``: how
+        old [s] the transform of the last pose returned was."""
         import tf2_ros
 
         rospy = self._rospy
@@ -248,6 +250,7 @@ class Costmap2DROS:
                 f"(transform_tolerance {self.transform_tolerance:.3f} s)"
             )
             return None
+        self.robot_pose_age = max(0.0, age) if stamp > 0.0 else 0.0
         return convert.to_xyyaw(tf)
 
     def _map_pose(self, frame):

@@ -156,6 +156,7 @@ class LocalPlanner:
         self._reached_goal = False
         self._goal = None  # the last pose of the plan set last
         self._last_cmd = _ZERO  # the command of the last cycle
+        self.pose_age = 0.0  # [s] how old the robot pose of the cycle is (set by the node; coast_to_goal_yaw)
         # Florence: with a person in the way (the forward motion that would win is refused for
         # min_person_distance), stop and say so instead of turning on the spot or backing up;
         # move_base clears it while it gives way
@@ -244,7 +245,10 @@ class LocalPlanner:
             if p.latch_xy_goal_tolerance:
                 self._xy_tolerance_latch = True
             angle = angles.diff(goal_th, yaw)
-            if abs(angle) <= p.yaw_goal_tolerance:
+            verdict = self._goal_yaw_verdict(angle, vth)
+            if verdict == "stop":
+                return True, _ZERO, "stopping the turn: it coasts to the goal yaw"
+            if verdict == "reached":
                 self._rotating_to_goal = False
                 self._xy_tolerance_latch = False
                 self._reached_goal = True
@@ -458,6 +462,25 @@ class LocalPlanner:
             return not approaches(pts, np.zeros(pts.shape[:2]), people, self.params.min_person_distance,
                                   still=still)[0]
         return True
+
+    def _goal_yaw_verdict(self, angle, vth):
+        """"reached", "turn" or "stop" for a robot ``angle`` [rad] short of the goal yaw, turning at
+        ``vth`` [rad/s]. ROS: reached when |angle| <= yaw_goal_tolerance, else turn, whatever the
+        turn rate. With coast_to_goal_yaw a robot still turning (above rot_stopped_velocity) is
+        judged by where a zero command now leaves it (the turn over command_lag and the pose's age,
+        then braking at acc_lim_theta, the rate velocity_filter allows): stop (a zero command) when
+        that is within half the tolerance short of the goal yaw or anywhere past it (turning on
+        only adds to the overshoot), else turn; at rest, ROS's rule: reached within the tolerance,
+        else turn again (toward the goal yaw, from whichever side the coasting ended). At 1 rad/s
+        (min_in_place_vel_theta) a robot coasts 0.5 rad after a zero command, more than the
+        tolerance: ROS's rule left it standing up to 0.56 rad past the goal yaw (test_nav_sim)."""
+        p = self.params
+        if not p.coast_to_goal_yaw or abs(vth) <= p.rot_stopped_velocity:
+            return "reached" if abs(angle) <= p.yaw_goal_tolerance else "turn"
+        w = self._ramp_from(vth, 2, p.acc_lim_theta)
+        coast = w * (p.command_lag + self.pose_age) + w * abs(w) / (2.0 * p.acc_lim_theta)
+        rest = angle - coast  # the error left once the robot stands
+        return "stop" if rest * w <= 0.0 or abs(rest) <= 0.5 * p.yaw_goal_tolerance else "turn"
 
     def _stopped_moving(self, vx, vy):
         """Translation within trans_stopped_velocity (the rotation may go on)."""

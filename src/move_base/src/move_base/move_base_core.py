@@ -402,6 +402,8 @@ class MoveBaseCore:
                 return CycleResult(cmd=tuple(cmd), new_plan=plan, text="the way is free: going on")
         why = self.people.blocking(tuple(pose), g.goal, reason)
         if not why:  # stuck, but not for people any more: ROS's patience from now
+            log.info("waiting ends after %.1f s: no people in the way any more (%s)", waited,
+                     reason or plan.reason)
             g.state = CONTROLLING if plan.ok else PLANNING
             g.last_valid_plan = g.last_valid_control = now
             self._leave_wait(now)

@@ -172,6 +172,7 @@ class ControllerAdapter:
     def compute_velocity(self, pose):
         node = self.node
         local = node.controller_costmap
+        start = rospy.get_time()
         here = local.get_robot_pose()
         if here is None:
             return False, (0.0, 0.0, 0.0), "transform timeout: no robot pose in the local costmap frame"
@@ -187,6 +188,7 @@ class ControllerAdapter:
             # the tracker may not know (remembered: the robot may have turned away from them)
             still = node.unmapped_near(pose, 2.5)
             still = pose2d.transform_points(to_local, still) if len(still) else still
+        node.local_planner.pose_age = local.robot_pose_age + max(0.0, rospy.get_time() - start)
         with local.lock:
             if local.layered.people is not None:
                 node.local_planner.set_people(local.layered.people.current(rospy.get_time())[0], still)

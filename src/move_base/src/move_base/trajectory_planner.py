@@ -109,6 +109,13 @@ PARAMS = ParamTable(
           "while braking (ROS stops first)"),
     Param("turn_before_tolerance", bool, False, "Florence, with rotate_while_braking: brake and turn before "
           "xy_goal_tolerance when a simulation of it ends well inside the tolerance and reaches the goal sooner"),
+    Param("coast_to_goal_yaw", bool, False, "Florence: within xy_goal_tolerance, a robot still turning stops the "
+          "turn once the turn it makes after a zero command (command_lag and the pose's age at its rate, then "
+          "braking at acc_lim_theta) ends within half yaw_goal_tolerance short of the goal yaw or past it, and the "
+          "goal is reached at rest within yaw_goal_tolerance (ROS: reached at any turn rate, and the robot coasts "
+          "on past the goal yaw)"),
+    Param("command_lag", float, 0.0, "Florence, coast_to_goal_yaw: time from the controller's command to the base "
+          "acting on it (the filters between, the base's own cycle)", unit="s", ge=0.0),
     Param("min_person_distance", float, 0.0, "Florence: no trajectory brings the robot's centre nearer than this "
           "to a tracked person (walking on at their velocity), or nearer than this less 0.1 m to a leg-height "
           "return the maps do not explain, than braking would; braking, turning on the spot and moving away "
