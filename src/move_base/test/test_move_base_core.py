@@ -296,7 +296,7 @@ class FakePeople:
         self.now = 0.0
         self.give_way_asked = 0
 
-    def blocking(self, pose, goal, reason):
+    def blocking(self, pose, goal, reason, waiting=False):
         return "a person at (1.00, 0.00), 1.00 m away stands in the way" if self.blocked(self.now) else ""
 
     def give_way(self, pose):
@@ -424,7 +424,7 @@ def test_waiting_goes_on_only_with_nobody_close_in_front():
     close in front: the robot keeps waiting rather than creep past them."""
     people = FakePeople(lambda now: 1.0 <= now < 9.0)
     people.clear = lambda pose, poses: people.now >= 15.0
-    people.blocking = lambda pose, goal, reason: "" if people.now >= 15.0 else "a person at (1.00, 0.00) ..."
+    people.blocking = lambda pose, goal, reason, waiting=False: "" if people.now >= 15.0 else "a person ..."
     ctrl = GivingWayController(people, reached_after=None)
     core = MoveBaseCore(core_params(person_wait_timeout=60.0), WaitingPlanner(people), ctrl, [], people=people)
     core.set_goal((5.0, 0.0, 0.0), 0.0, POSE)
@@ -472,6 +472,28 @@ def test_flipping_between_blocked_and_free_without_progress_still_times_out():
     assert went_on >= 3  # it did flip
     assert recs[0].started >= 1
     assert t_end < 10.0 / (1.2 / 1.6) + 10.0
+
+
+def test_a_wait_goes_on_while_the_people_are_out_of_view():
+    """The people are seen at first, then only the marks they left block the plan (the robot turned
+    away from them): the wait goes on to person_wait_timeout and the goal aborts saying people stood
+    in the way (before, the wait ended as soon as nobody was in view, the recoveries ran, and the
+    abort gave only the planner's reason)."""
+    class OutOfView(FakePeople):
+        def blocking(self, pose, goal, reason, waiting=False):
+            seen = self.now < 3.0
+            return "a person at (1.00, 0.00), 1.00 m away stands in the way" if seen or waiting else ""
+
+    people = OutOfView(lambda now: now >= 1.0)
+    recs = [FakeRecovery("conservative_reset")]
+    core = MoveBaseCore(core_params(planner_patience=1.0, person_wait_timeout=10.0), WaitingPlanner(people),
+                        GivingWayController(people, reached_after=None), recs, people=people)
+    core.set_goal((5.0, 0.0, 0.0), 0.0, POSE)
+    outcome, text, _, results = run_people(core, people, n=1000)
+    assert outcome == "aborted", [(now, state) for now, state, _ in results[-20:]]
+    assert "people stood in the way for 10 s" in text, text
+    waiting = [now for now, state, _ in results if state == "WAITING"]
+    assert waiting and waiting[-1] - waiting[0] >= 9.5  # one wait, on past the time the people left the view
 
 
 def test_progress_between_waits_starts_the_wait_afresh():

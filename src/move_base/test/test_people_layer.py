@@ -15,6 +15,7 @@ from move_base.people_layer import (
     ProxemicLayer,
     RecentPoints,
     approaches,
+    blocked_plan_reason,
     braking_positions,
     give_way_cells,
 )
@@ -260,3 +261,17 @@ def test_map_only_and_unmapped_marks():
     assert lay.costmap.cost_at(0.82, 0.92) == LETHAL_OBSTACLE
     only = lay.map_only()
     assert only.cost_at(0.82, 0.92) == FREE_SPACE and only.cost_at(1.52, 1.0) == LETHAL_OBSTACLE
+
+
+# --- why a failed plan is people's doing ----------------------------------------------------------
+def test_a_failed_plan_is_blocked_by_people_only_where_the_maps_have_a_way():
+    near = "a person at (1.00, 2.00), 0.80 m away"
+    assert blocked_plan_reason(near, True) == f"{near} stands in the way (the map has a way)"
+    assert blocked_plan_reason(near, False) == ""  # the maps have no way either: not people's doing
+    assert blocked_plan_reason("", False, waiting=True) == ""
+
+
+def test_marks_out_of_view_keep_a_wait_going_but_start_none():
+    assert blocked_plan_reason("", True) == ""  # a stale mark: the recoveries clear it at once
+    why = blocked_plan_reason("", True, waiting=True)  # turned away from the people waited for
+    assert "out of their view now" in why and "the map has a way" in why

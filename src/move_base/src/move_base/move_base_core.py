@@ -16,8 +16,9 @@ The collaborators are injected (duck-typed), so the machine is tested with fakes
                 reason), is_goal_reached() -> bool
     recoveries: objects with ``name`` and ``start(now, pose)``, ``step(now, pose) -> (done, cmd)``
     sensors_current() -> (ok, reason)
-    people (optional): blocking(pose, goal, reason) -> why people stand in the way after a failed
-        plan (reason None) or control (the controller's reason), or ''; clear(pose, poses) -> whether
+    people (optional): blocking(pose, goal, reason, waiting=False) -> why people stand in the way
+        after a failed plan (reason None) or control (the controller's reason), or '' (``waiting``:
+        the robot already waits for them); clear(pose, poses) -> whether
         nobody stands close in front along the plan ``poses``; give_way(pose) -> a pose (x, y, yaw)
         out of their way, or None; plan_to(start, pose) -> PlanResult-like.
 
@@ -400,7 +401,7 @@ class MoveBaseCore:
                 g.state = CONTROLLING
                 log.info("the way is free after %.1f s: going on", waited)
                 return CycleResult(cmd=tuple(cmd), new_plan=plan, text="the way is free: going on")
-        why = self.people.blocking(tuple(pose), g.goal, reason)
+        why = self.people.blocking(tuple(pose), g.goal, reason, waiting=True)
         if not why:  # stuck, but not for people any more: ROS's patience from now
             log.info("waiting ends after %.1f s: no people in the way any more (%s)", waited,
                      reason or plan.reason)

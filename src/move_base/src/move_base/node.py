@@ -58,6 +58,7 @@ from move_base.people_layer import (
     GIVE_WAY_MAX_COST,
     GIVE_WAY_MIN_DISTANCE,
     RecentPoints,
+    blocked_plan_reason,
     give_way_cells,
 )
 from move_base.recovery import (
@@ -238,24 +239,22 @@ class PeopleAdapter:
         what = "a person" if i < tracked else "something the map does not have (a person?)"
         return f"{what} at ({blockers[i, 0]:.2f}, {blockers[i, 1]:.2f}), {d[i]:.2f} m away"
 
-    def blocking(self, pose, goal, reason):
+    def blocking(self, pose, goal, reason, waiting=False):
         """Why people stand in the way after a failed plan (``reason`` None: a plan exists on the
-        maps alone, without what the sensors see) or control (the local planner kept its distance
-        from a person, or a person or an unmapped obstacle is within 1.2 m), or ''."""
+        maps alone, without what the sensors marked; people_layer.blocked_plan_reason) or control
+        (the local planner kept its distance from a person, or a person or an unmapped obstacle is
+        within 1.2 m), or ''. ``waiting``: the robot already waits for them."""
         blockers, tracked = self._blockers(pose, 1.2 if reason is not None else 3.0)
-        if reason == NO_VALID_TRAJECTORY_PEOPLE:
-            near = self._describe(pose, blockers, tracked)
-            return f"{near or 'a person'} is nearer than min_person_distance on every way on"
-        if not len(blockers):
-            return ""
         near = self._describe(pose, blockers, tracked)
+        if reason == NO_VALID_TRAJECTORY_PEOPLE:
+            return f"{near or 'a person'} is nearer than min_person_distance on every way on"
         if reason is not None:
-            return f"{near}: {reason}"
+            return f"{near}: {reason}" if near else ""
         costmap = self.node.planner_costmap
         with costmap.lock:
             free = costmap.layered.map_only()
             result = self.node.global_planner.make_plan(free, pose, goal, start_clearance=costmap.inscribed_radius)
-        return f"{near} stands in the way (the map has a way)" if result.ok else ""
+        return blocked_plan_reason(near, result.ok, waiting)
 
     def clear(self, pose, poses):
         """Whether nobody is close in front: no tracked person within min_person_distance + 0.1 m

@@ -269,6 +269,23 @@ class RecentPoints:
         return np.concatenate(rows) if rows else np.zeros((0, 2))
 
 
+def blocked_plan_reason(near, map_has_way, waiting=False):
+    """Why a failed plan is people's doing, or '': the maps alone (static and keep-out) have a way,
+    so what the sensors marked since blocks it, and ``near`` says what they see near the robot now.
+    When they see nothing there now, a wait goes on (``waiting``) but none starts: the marks were
+    made earlier and are out of view now (the robot turned away to give way; test_nav_sim's doorway
+    ended its wait there, ran the recoveries and aborted without saying people were in the way),
+    while a stale mark of someone who left is the recoveries' to clear, at once."""
+    if not map_has_way:
+        return ""
+    if near:
+        return f"{near} stands in the way (the map has a way)"
+    if waiting:
+        return ("something the map does not have, marked by the sensors and out of their view now, stands in "
+                "the way (the map has a way)")
+    return ""
+
+
 def give_way_cells(potential, costmap, robot_xy, people, keep_off, min_distance):
     """Where the robot could stand to let people by: the reachable cell (finite ``potential``, a
     navfn potential from the robot over ``costmap``) of least potential at least
