@@ -18,7 +18,7 @@ import time
 import pytest
 
 from florence_common import angles
-from florence_common.processes import wait_for
+from florence_common.processes import ProcessError, wait_for
 
 pytestmark = [pytest.mark.scenario, pytest.mark.slow]
 
@@ -172,8 +172,11 @@ def test_manual_override_stops_the_robot_within_a_second_and_teleop_drives_it(st
     assert session.call("gotoRoom", "kitchen").success
     # mid-route: driving at speed, not in a sharp turn (velocity_filter brakes a turn at 1 rad/s^2: a turn at
     # 1.5 rad/s takes 1.5 s to stop whoever asks)
-    wait_for(lambda: session.motion[-1][4] > 0.25 and abs(session.motion[-1][5]) < 0.4, 120,
-             what="the robot under way")
+    try:
+        wait_for(lambda: session.motion[-1][4] > 0.25 and abs(session.motion[-1][5]) < 0.4, 120,
+                 what="the robot under way")
+    except ProcessError as exc:
+        raise AssertionError(f"{exc}: {session.call('getStatus')}{dump(procs)}") from None
     session.set_override(True)
     t_override = session.sim_now()
     wait_for(lambda: session.call("getStatus").status == "ABORTED", 10, what="the activity aborted")
