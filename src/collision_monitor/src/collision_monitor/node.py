@@ -1,6 +1,6 @@
 """collision_monitor_node: between cmd_vel_mux and velocity_filter, every velocity command is
-judged against the obstacles the laser and the Kinect's fake laser see (collision_monitor.monitor
-says how) and passed, slowed or stopped.
+judged against the obstacles the laser and the Kinect see (collision_monitor.monitor says how) and
+passed, slowed or stopped.
 
 ROS Parameters: PARAMS below (rendered in the README); ~sources entries: obstacles.SOURCE.
 
@@ -9,16 +9,18 @@ ROS Subscribers:
         component is dropped with a throttled warning (velocity_filter keeps the previous one).
     active_input (std_msgs/String, latched): the multiplexer's input in control (cmd_vel_mux's
         ~active), for ~input_stop_distances.
-    <topic of each source> (sensor_msgs/LaserScan): the obstacle sensors (config/sources.yaml:
-        /scan, the Hokuyo; /kinect_scan, the Kinect's fake laser).
+    <topic of each source> (sensor_msgs/LaserScan, or sensor_msgs/Image and sensor_msgs/CameraInfo
+        for a depth source): the obstacle sensors (config/sources.yaml: /scan, the Hokuyo;
+        /camera/depth/image and /camera/depth/camera_info, the Kinect; /kinect_scan, its fake
+        laser, is the fallback).
 
 ROS Publishers:
     cmd_vel (geometry_msgs/Twist): each command as judged, at once (velocity_filter's input); and,
         when a new scan shows that the last command (younger than ~recheck_window) must slow down
         more, that command again as judged now. One zero Twist on shutdown.
     ~state (collision_monitor/MonitorState): the judgement of every command published.
-    /diagnostics: the state, the commands slowed and stopped, each source's age and problems, the
-        time to judge a command (p50 / p99).
+    /diagnostics: the state, the commands slowed and stopped, each source's age, points and
+        problems, the time to judge a command (p50 / p99).
 """
 
 import dataclasses
@@ -55,8 +57,8 @@ def _footprint_problem(value):
 
 
 PARAMS = ParamTable(
-    Param("sources", list, None, "the obstacle sensors, each {name, topic, timeout, required, self_range, memory} "
-          "(config/sources.yaml; the table below)", optional=True),
+    Param("sources", list, None, "the obstacle sensors, each {name, topic, type, timeout, required, self_range, "
+          "padding, memory, ...} (config/sources.yaml; the table below)", optional=True),
     Param("fixed_frame", FRAME, "odom", "frame the obstacle points are kept in while the robot moves"),
     Param("base_frame", FRAME, "base_footprint", "the robot's frame (commands are in it)"),
     Param("footprint", list, [], "polygon [[x, y], ...] in the base frame; [] = a circle of ~robot_radius", unit="m",
@@ -226,7 +228,8 @@ class CollisionMonitorNode:
         for name, age in ages.items():
             spec = self.sources.specs[name]
             text = f"{age:.2f} s ago" if math.isfinite(age) else "no scan yet"
-            text += f", {self.sources.taken[name]} taken, {self.sources.skipped[name]} skipped"
+            text += (f", {self.sources.taken[name]} taken, {self.sources.skipped[name]} skipped, "
+                     f"{len(self.sources.memories[name].points)} points")
             if self.sources.problem[name]:
                 text += f" (last: {self.sources.problem[name]})"
             stat.add(f"source {name} ({spec.topic}{', required' if spec.required else ''})", text)

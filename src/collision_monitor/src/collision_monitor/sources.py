@@ -1,11 +1,15 @@
-"""Range sensors as obstacle points in a fixed frame, over ROS: one sensor_msgs/LaserScan
-subscriber and one obstacles.ObstacleMemory per source (the monitor's ~sources; approach_me uses
-the same to check that a pose is free).
+"""Range sensors as obstacle points in a fixed frame, over ROS: per source of the monitor's ~sources
+(approach_me uses the same to check that a pose is free) one subscriber and one memory: a
+sensor_msgs/LaserScan into obstacles.ObstacleMemory (``type: scan``), or a depth image
+(sensor_msgs/Image 32FC1 [m] or 16UC1 [mm], with its sensor_msgs/CameraInfo) into
+depth_memory.DepthMemory (``type: depth``).
 
-A scan is placed through tf (fixed frame <- the scan's frame, at the scan's stamp): the inverted
-Hokuyo's frame is rolled by pi, and tf turns its points right. A scan that cannot be used (no
-frame, no transform, no beams, a zero angle increment) is skipped with a throttled warning that
-says why; the source then goes stale after its timeout.
+A scan or an image is placed through tf (fixed frame <- its frame, at its stamp): the inverted
+Hokuyo's frame is rolled by pi, and tf turns its points right; the depth image's optical frame
+carries the Kinect's height and tilt. One that cannot be used (no frame, no transform, no beams, a
+zero angle increment; no camera_info yet, one of another size or without intrinsics, an encoding
+that does not decode) is skipped with a warning throttled per source that says why; the source then
+goes stale after its timeout.
 """
 
 import math
@@ -14,15 +18,18 @@ from collections import Counter
 
 import numpy as np
 import rospy
-from sensor_msgs.msg import LaserScan
+from sensor_msgs.msg import CameraInfo, Image, LaserScan
 
-from collision_monitor.obstacles import ObstacleMemory, Scan
+from collision_monitor.depth_memory import Camera, DepthFrame
+from collision_monitor.obstacles import DEPTH, Scan, camera_info_topic, make_memory
+from florence_common_ros.convert import depth_image_metres
+from florence_common_ros.throttle import KindThrottle
 from florence_common_ros.transforms import lookup_matrix
 
 
 class ScanSources:
     """``specs``: the parsed ~sources entries (obstacles.parse_sources); ``on_scan(name)`` is called
-    after each scan taken (in the subscriber's thread)."""
+    after each scan or depth image taken (in the subscriber's thread)."""
 
     def __init__(self, specs, fixed_frame, tf_buffer, tf_timeout=0.5, on_scan=None, log_prefix=""):
         self.specs = {s.name: s for s in specs}
@@ -31,38 +38,82 @@ class ScanSources:
         self.tf_timeout = tf_timeout
         self.on_scan = on_scan
         self.log_prefix = log_prefix
+        self.warn = KindThrottle(log_prefix)  # per source and problem: one does not silence another
         self.lock = threading.Lock()
-        self.memories = {s.name: ObstacleMemory(s.memory, s.self_range) for s in specs}
+        self.memories = {s.name: make_memory(s) for s in specs}
         self.taken_at = {s.name: -math.inf for s in specs}  # [s] ROS time of the last scan taken
         self.taken = Counter()
         self.skipped = Counter()
         self.problem = {s.name: "" for s in specs}  # the last reason a scan was skipped
-        self.subs = [rospy.Subscriber(s.topic, LaserScan, self._on_scan, callback_args=s.name, queue_size=1)
-                     for s in specs]
+        self.camera_info = {}  # depth sources: name -> the latest sensor_msgs/CameraInfo
+        self.subs = []
+        for s in specs:
+            if s.type == DEPTH:
+                self.subs += [rospy.Subscriber(camera_info_topic(s), CameraInfo, self._on_camera_info,
+                                               callback_args=s.name, queue_size=1),
+                              rospy.Subscriber(s.topic, Image, self._on_depth, callback_args=s.name, queue_size=1,
+                                               buff_size=2 ** 24)]
+            else:
+                self.subs.append(rospy.Subscriber(s.topic, LaserScan, self._on_scan, callback_args=s.name,
+                                                  queue_size=1))
 
-    def _skip(self, name, why):
+    def _skip(self, name, kind, why):
+        """Count a skipped scan or image of source ``name``; warn, throttled per source and ``kind`` of
+        problem (a new problem is told at once)."""
         with self.lock:
             self.skipped[name] += 1
             self.problem[name] = why
-        rospy.logwarn_throttle(5.0, f"{self.log_prefix}{name} scan skipped: {why}")
+        what = "image" if self.specs[name].type == DEPTH else "scan"
+        self.warn((name, kind), f"{name} {what} skipped: {why}")
 
-    def _on_scan(self, msg, name):
-        frame = msg.header.frame_id.lstrip("/")
-        if not frame:
-            return self._skip(name, "the scan has no frame_id")
-        if not len(msg.ranges) or not (math.isfinite(msg.angle_increment) and msg.angle_increment != 0.0):
-            return self._skip(name, f"{len(msg.ranges)} beams with angle_increment {msg.angle_increment}")
-        pose, why = lookup_matrix(self.tf_buffer, self.fixed_frame, frame, msg.header.stamp, self.tf_timeout)
-        if pose is None:
-            return self._skip(name, why)
-        scan = Scan(np.asarray(msg.ranges, dtype=float), msg.angle_min, msg.angle_increment, msg.range_min,
-                    msg.range_max, pose, msg.header.stamp.to_sec())
+    def _taken(self, name):
         with self.lock:
-            self.memories[name].update(scan)
             self.taken[name] += 1
             self.taken_at[name] = rospy.get_time()
         if self.on_scan is not None:
             self.on_scan(name)
+
+    def _on_scan(self, msg, name):
+        frame = msg.header.frame_id.lstrip("/")
+        if not frame:
+            return self._skip(name, "frame", "the scan has no frame_id")
+        if not len(msg.ranges) or not (math.isfinite(msg.angle_increment) and msg.angle_increment != 0.0):
+            return self._skip(name, "beams", f"{len(msg.ranges)} beams with angle_increment {msg.angle_increment}")
+        pose, why = lookup_matrix(self.tf_buffer, self.fixed_frame, frame, msg.header.stamp, self.tf_timeout)
+        if pose is None:
+            return self._skip(name, "tf", why)
+        scan = Scan(np.asarray(msg.ranges, dtype=float), msg.angle_min, msg.angle_increment, msg.range_min,
+                    msg.range_max, pose, msg.header.stamp.to_sec())
+        with self.lock:
+            self.memories[name].update(scan)
+        self._taken(name)
+        return None
+
+    def _on_camera_info(self, msg, name):
+        self.camera_info[name] = msg
+
+    def _on_depth(self, msg, name):
+        frame = msg.header.frame_id.lstrip("/")
+        if not frame:
+            return self._skip(name, "frame", "the image has no frame_id")
+        info = self.camera_info.get(name)
+        if info is None:
+            return self._skip(name, "camera_info", f"no camera_info on {camera_info_topic(self.specs[name])} yet")
+        if (info.width, info.height) != (msg.width, msg.height):
+            return self._skip(name, "camera_info",
+                              f"camera_info is {info.width}x{info.height}, the image {msg.width}x{msg.height}")
+        try:
+            camera = Camera.from_k(info.K, info.width, info.height)
+            depth = depth_image_metres(msg)
+        except ValueError as exc:
+            return self._skip(name, "decode", str(exc))
+        pose, why = lookup_matrix(self.tf_buffer, self.fixed_frame, frame, msg.header.stamp, self.tf_timeout)
+        if pose is None:
+            return self._skip(name, "tf", why)
+        # outside the lock (only this subscriber's thread updates this memory; it replaces its
+        # points in one assignment): judging a command does not wait for a frame's few ms
+        self.memories[name].update(DepthFrame(depth, camera, pose, msg.header.stamp.to_sec()))
+        self._taken(name)
         return None
 
     def points(self):
