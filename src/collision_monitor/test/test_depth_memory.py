@@ -157,14 +157,35 @@ def test_points_stay_fixed_in_the_fixed_frame_as_the_robot_moves_and_turns():
     m = DepthMemory(memory=3.0)
     m.update(frame([box]))
     before = m.points.copy()
-    # the robot drove 0.5 m and turned left a quarter turn: the box is beside it (its right)
-    m.update(frame([box], x=0.5, yaw=math.pi / 2, stamp=1.0))
+    # the robot drove 0.1 m and turned left a quarter turn: the box is 1 m to its right
+    m.update(frame([box], x=0.1, yaw=math.pi / 2, stamp=1.0))
     assert m.counts[OUTSIDE] + m.counts[BEHIND] == len(before) and m.counts[OUTSIDE] > 0
     assert np.allclose(np.sort(m.points, axis=0), np.sort(before, axis=0))
-    m.update(frame([box], x=0.5, yaw=math.pi, stamp=2.0))  # behind it
-    assert len(m.points) == len(before)
-    m.update(frame([box], x=0.5, yaw=math.pi, stamp=3.5))
+    m.update(frame([box], x=0.1, yaw=math.pi, stamp=2.0))  # behind it
+    assert m.counts[BEHIND] == len(m.points) == len(before)
+    m.update(frame([box], x=0.1, yaw=math.pi, stamp=3.5))
     assert not len(m.points), "forgotten after the memory time"
+
+
+def test_what_is_near_beside_the_camera_is_kept_while_it_is_there():
+    """Stopped 0.3 m before the seat, the robot turns 45 degrees: the seat leaves the image but is
+    still where the robot may arc into (the fake laser kept its near points over +-90 degrees)."""
+    m = DepthMemory(memory=3.0)
+    for k, x in enumerate(np.arange(0.0, 0.701, 0.05)):
+        m.update(frame([SEAT], x=x, stamp=0.1 * k))
+
+    def near_seat():  # the seat's points within 0.65 m of the camera (it reaches 0.72 m away)
+        p = m.points[in_box(m.points, SEAT)]
+        return p[np.hypot(p[:, 0] - 0.7, p[:, 1]) <= 0.65]
+
+    seat = near_seat()
+    assert len(seat)
+    for k in range(10):  # 10 s turned left by 45 degrees, then 10 s by 45 degrees right
+        m.update(frame([SEAT], x=0.7, yaw=math.pi / 4, stamp=2.0 + k))
+    for k in range(10):
+        m.update(frame([SEAT], x=0.7, yaw=-math.pi / 4, stamp=12.0 + k))
+    assert len(near_seat()) == len(seat)
+    assert nearest_ahead(m, 0.7) == pytest.approx(1.0, abs=0.03)
 
 
 def test_what_is_blind_in_front_is_kept_until_the_robot_turns_away():

@@ -21,12 +21,14 @@ Each frame:
 2. *Remembered points* are projected into the new image (every pixel, not only the subsampled
    ones) and judged (:func:`classify`):
 
-   - BEHIND the camera, or OUTSIDE its horizontal view (beside or behind the robot): not observed,
-     kept for ``memory`` s after last seen;
-   - in the horizontal view but above or below the image, or on a pixel without depth: BLIND when
-     nearer than ``blind_range`` (too near for the camera: a seat the robot drove up to; kept as
-     long as it is there, like ObstacleMemory's blind zone), else UNKNOWN (no return: kept for
-     ``memory`` s);
+   - BLIND: in front of the camera (the half-space its optical axis points into) within
+     ``blind_range`` of it in the horizontal plane, where it does not see the point: outside the
+     image (beside it, above or below) or on a pixel without depth (too near: a seat the robot
+     drove up to). Kept as long as it is there, like ObstacleMemory's blind zone (the fake laser
+     kept what was nearer than its range_min over its +-90 degrees): the robot may turn or arc
+     into what is beside it;
+   - BEHIND the camera, or OUTSIDE the image farther away: not observed, kept for ``memory`` s
+     after last seen; UNKNOWN, on a pixel without depth farther away (no return): the same;
    - SEEN_THROUGH when the pixel and every pixel with depth next to it read more than ``margin``
      beyond the point: the ray passed where the point was: dropped;
    - HIDDEN behind a return nearer by more than ``margin`` (or an uneven neighbourhood): kept for
@@ -114,9 +116,10 @@ def to_camera(points, pose):
 
 def classify(points, frame, blind_range, margin):
     """The verdict (OBSERVED ... UNKNOWN, see the module) on each remembered point [N, 3] of the
-    fixed frame in ``frame``; ``blind_range`` [m] of depth below which a point the camera looks
-    at without a return is too near for it; ``margin`` [m] of depth between a point and a return
-    beyond or before it."""
+    fixed frame in ``frame``; ``blind_range`` [m]: a point in front of the camera this near to it
+    in the horizontal plane (hypot of optical x and z: the camera's height and tilt aside) that it
+    does not see is too near for it; ``margin`` [m] of depth between a point and a return beyond
+    or before it."""
     n = len(points)
     verdict = np.full(n, OBSERVED, dtype=np.int8)
     if not n:
@@ -129,6 +132,7 @@ def classify(points, frame, blind_range, margin):
     u = np.rint(cam.fx * local[:, 0] / zs + cam.cx)
     v = np.rint(cam.fy * local[:, 1] / zs + cam.cy)
     outside = ~behind & ((u < 0) | (u >= cam.width))
+    near = ~behind & (np.hypot(local[:, 0], z) <= blind_range)
     in_view = ~behind & ~outside
     depth = np.asarray(frame.depth, dtype=np.float32)
     h, w = depth.shape
@@ -152,8 +156,9 @@ def classify(points, frame, blind_range, margin):
     verdict[:] = HIDDEN  # what is left: a nearer return, or beyond with something near beside it
     verdict[observed] = OBSERVED
     verdict[through] = SEEN_THROUGH
-    verdict[unseen] = np.where(z[unseen] <= blind_range, BLIND, UNKNOWN)
+    verdict[unseen] = UNKNOWN
     verdict[outside] = OUTSIDE
+    verdict[near & (unseen | outside)] = BLIND
     verdict[behind] = BEHIND
     return verdict
 
@@ -163,8 +168,8 @@ class DepthMemory:
 
     ``memory`` [s]: how long a point the camera no longer observes is kept (BLIND ones: as long as
     they are blind); ``min_height``, ``max_height`` [m]: the band of fixed-frame z kept;
-    ``max_range`` [m]: depth of the farthest fresh point; ``blind_range`` [m]: depth below which
-    the camera sees nothing; ``self_range`` [m]: nearer returns are the robot itself; ``margin``
+    ``max_range`` [m]: depth of the farthest fresh point; ``blind_range`` [m]: the camera sees
+    nothing nearer (in front, see classify); ``self_range`` [m]: nearer returns are the robot itself; ``margin``
     [m]: depth difference that counts as seeing through or hidden; ``target_width`` [px]: columns
     used for fresh points; ``resolution`` [m]: voxel edge of the thinning."""
 

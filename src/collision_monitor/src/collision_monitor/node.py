@@ -19,8 +19,8 @@ ROS Publishers:
         when a new scan shows that the last command (younger than ~recheck_window) must slow down
         more, that command again as judged now. One zero Twist on shutdown.
     ~state (collision_monitor/MonitorState): the judgement of every command published.
-    /diagnostics: the state, the commands slowed and stopped, each source's age, points and
-        problems, the time to judge a command (p50 / p99).
+    /diagnostics: the state, the commands slowed and stopped, each source's age, points, time to
+        take a scan or image (p50 / p99) and problems, the time to judge a command (p50 / p99).
 """
 
 import dataclasses
@@ -230,6 +230,9 @@ class CollisionMonitorNode:
             text = f"{age:.2f} s ago" if math.isfinite(age) else "no scan yet"
             text += (f", {self.sources.taken[name]} taken, {self.sources.skipped[name]} skipped, "
                      f"{len(self.sources.memories[name].points)} points")
+            took = self.sources.update_times(name)
+            if len(took):
+                text += f", {np.percentile(took, 50):.1f} / {np.percentile(took, 99):.1f} ms each (p50 / p99)"
             if self.sources.problem[name]:
                 text += f" (last: {self.sources.problem[name]})"
             stat.add(f"source {name} ({spec.topic}{', required' if spec.required else ''})", text)

@@ -52,9 +52,9 @@ SOURCE = ParamTable(
     Param("min_height", float, 0.05, "depth: lowest point kept, z in ~fixed_frame (the floor)", unit="m"),
     Param("max_height", float, 1.0, "depth: highest point kept", unit="m"),
     Param("max_range", float, 3.0, "depth: farthest point kept, along the optical axis", unit="m", gt=0),
-    Param("blind_range", float, 0.7, "depth: nearer than this (along the optical axis) a remembered point in front "
-          "that the camera does not see (no depth at its pixel, or above or below the image) is too near for it "
-          "and kept as long as it is there", unit="m", ge=0),
+    Param("blind_range", float, 0.7, "depth: a remembered point in front of the camera (its optical axis' half-space) "
+          "this near to it (horizontally) that it does not see (no depth at its pixel; beside, above or below the "
+          "image) is too near for it and kept as long as it is there", unit="m", ge=0),
     Param("target_width", int, 160, "depth: fresh points from about this many columns (every "
           "round(width / target_width)-th row and column); remembered points are judged at every pixel", unit="px",
           ge=1),

@@ -14,7 +14,8 @@ goes stale after its timeout.
 
 import math
 import threading
-from collections import Counter
+import time
+from collections import Counter, deque
 
 import numpy as np
 import rospy
@@ -45,6 +46,7 @@ class ScanSources:
         self.taken = Counter()
         self.skipped = Counter()
         self.problem = {s.name: "" for s in specs}  # the last reason a scan was skipped
+        self.update_ms = {s.name: deque(maxlen=300) for s in specs}  # [ms] wall time to take each one
         self.camera_info = {}  # depth sources: name -> the latest sensor_msgs/CameraInfo
         self.subs = []
         for s in specs:
@@ -66,8 +68,10 @@ class ScanSources:
         what = "image" if self.specs[name].type == DEPTH else "scan"
         self.warn((name, kind), f"{name} {what} skipped: {why}")
 
-    def _taken(self, name):
+    def _taken(self, name, start):
+        """Count a scan or image of ``name`` taken, its update begun at ``start`` (perf_counter) [s]."""
         with self.lock:
+            self.update_ms[name].append(1e3 * (time.perf_counter() - start))
             self.taken[name] += 1
             self.taken_at[name] = rospy.get_time()
         if self.on_scan is not None:
@@ -82,11 +86,12 @@ class ScanSources:
         pose, why = lookup_matrix(self.tf_buffer, self.fixed_frame, frame, msg.header.stamp, self.tf_timeout)
         if pose is None:
             return self._skip(name, "tf", why)
+        start = time.perf_counter()
         scan = Scan(np.asarray(msg.ranges, dtype=float), msg.angle_min, msg.angle_increment, msg.range_min,
                     msg.range_max, pose, msg.header.stamp.to_sec())
         with self.lock:
             self.memories[name].update(scan)
-        self._taken(name)
+        self._taken(name, start)
         return None
 
     def _on_camera_info(self, msg, name):
@@ -102,18 +107,21 @@ class ScanSources:
         if (info.width, info.height) != (msg.width, msg.height):
             return self._skip(name, "camera_info",
                               f"camera_info is {info.width}x{info.height}, the image {msg.width}x{msg.height}")
+        start = time.perf_counter()
         try:
             camera = Camera.from_k(info.K, info.width, info.height)
             depth = depth_image_metres(msg)
         except ValueError as exc:
             return self._skip(name, "decode", str(exc))
+        decoded = time.perf_counter()
         pose, why = lookup_matrix(self.tf_buffer, self.fixed_frame, frame, msg.header.stamp, self.tf_timeout)
         if pose is None:
             return self._skip(name, "tf", why)
+        start += time.perf_counter() - decoded  # the wait for tf is not work
         # outside the lock (only this subscriber's thread updates this memory; it replaces its
         # points in one assignment): judging a command does not wait for a frame's few ms
         self.memories[name].update(DepthFrame(depth, camera, pose, msg.header.stamp.to_sec()))
-        self._taken(name)
+        self._taken(name, start)
         return None
 
     def points(self):
@@ -124,6 +132,12 @@ class ScanSources:
             return np.zeros((0, 3)), np.zeros(0)
         return (np.vstack([p for p, _ in parts]),
                 np.concatenate([np.full(len(p), pad) for p, pad in parts]))
+
+    def update_times(self, name):
+        """[ms] wall time each of the last (up to 300) scans or images of ``name`` took (decoding and
+        the memory's update; not the wait for tf)."""
+        with self.lock:
+            return np.array(self.update_ms[name])
 
     def ages(self, now):
         """{name: [s] since its last scan was taken (inf: none yet)}."""
