@@ -246,6 +246,15 @@ def test_a_640x480_image_is_subsampled_to_about_target_width_columns():
     assert m.update(frame([WALL], cam=cam, stamp=0.1)) == 0, "the wall's points observed again: replaced"
 
 
+def test_the_columns_are_the_points_in_the_plane():
+    m = DepthMemory(resolution=0.05)
+    m.update(frame([SEAT, WALL]))
+    columns = voxel_keys(m.columns, 0.05, dims=2)
+    assert len(np.unique(columns)) == len(columns) < len(m.points) / 5
+    assert set(columns) == set(voxel_keys(m.points, 0.05, dims=2)), "every column of the points has one"
+    assert all(any(np.all(c == p) for p in m.points) for c in m.columns[:20]), "real points"
+
+
 def test_one_point_per_voxel():
     m = DepthMemory(resolution=0.05)
     m.update(frame([WALL]))

@@ -36,7 +36,9 @@ Each frame:
    - OBSERVED otherwise (the pixel reads the point's depth): dropped, the frame's fresh points
      stand for it.
 3. Fresh points first, then the kept ones; a kept point whose voxel already holds a fresh point
-   goes (one point per voxel).
+   goes (one point per voxel). ``columns`` holds one of them per vertical column of
+   ``resolution`` square: the obstacles in the plane, what the monitor judges a command against
+   (about 30 times fewer than the 3-D points).
 
 A person who walks away is cleared by the pixels that now see the wall behind where they stood;
 what leaves the view unseen stays (the safe mistake): a person's ankles below the view in front
@@ -101,11 +103,13 @@ def stride_for(width, target_width):
     return max(1, round(width / target_width))
 
 
-def voxel_keys(points, resolution):
-    """One int64 key per point [N, 3] of the voxel of edge ``resolution`` [m] holding it."""
-    idx = np.floor(np.asarray(points, dtype=float) / resolution).astype(np.int64) + _VOXEL_SPAN // 2
+def voxel_keys(points, resolution, dims=3):
+    """One int64 key per point [N, 3] of the voxel of edge ``resolution`` [m] holding it (``dims``
+    2: of the vertical column)."""
+    idx = np.floor(np.asarray(points, dtype=float)[:, :dims] / resolution).astype(np.int64) + _VOXEL_SPAN // 2
     idx = np.clip(idx, 0, _VOXEL_SPAN - 1)
-    return (idx[:, 0] * _VOXEL_SPAN + idx[:, 1]) * _VOXEL_SPAN + idx[:, 2]
+    keys = idx[:, 0] * _VOXEL_SPAN + idx[:, 1]
+    return keys * _VOXEL_SPAN + idx[:, 2] if dims == 3 else keys
 
 
 def to_camera(points, pose):
@@ -185,6 +189,7 @@ class DepthMemory:
         self.target_width, self.resolution = int(target_width), float(resolution)
         self.points = np.zeros((0, 3))
         self.seen_at = np.zeros(0)  # [s] when each point was last seen
+        self.columns = np.zeros((0, 3))  # one of the points per column of resolution square
         self.stamp = -math.inf  # [s] of the last frame
         self.counts = np.zeros(len(VERDICTS), dtype=int)  # verdicts of the last frame
         self._rays = {}  # (camera, stride) -> unit-depth rays [M, 3] of the subsampled pixels
@@ -226,12 +231,15 @@ class DepthMemory:
         # one point per voxel, the first (fresh before remembered)
         _, first = np.unique(voxel_keys(points, self.resolution), return_index=True)
         first.sort()
-        self.points, self.seen_at = points[first], times[first]
+        points, times = points[first], times[first]
+        _, column = np.unique(voxel_keys(points, self.resolution, dims=2), return_index=True)
+        # replaced whole, each in one assignment: a reader in another thread sees one frame's arrays
+        self.points, self.seen_at, self.columns = points, times, points[column]
         self.stamp = stamp
         return int(np.count_nonzero(first >= len(fresh)))
 
     def clear(self):
-        self.points, self.seen_at = np.zeros((0, 3)), np.zeros(0)
+        self.points, self.seen_at, self.columns = np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3))
 
     def age(self, now):
         """[s] since the last frame."""

@@ -37,7 +37,7 @@ from std_msgs.msg import String
 
 from collision_monitor.monitor import BLIND, CLEAR, SLOW, STOP, TURN, MonitorConfig, blind, decide
 from collision_monitor.msg import MonitorState
-from collision_monitor.obstacles import parse_sources
+from collision_monitor.obstacles import DEPTH, parse_sources
 from collision_monitor.sources import ScanSources
 from florence_common.params import FRAME, Param, ParamTable
 from florence_common_ros.diagnostics import ERROR, OK, WARN, Diagnostics
@@ -228,8 +228,11 @@ class CollisionMonitorNode:
         for name, age in ages.items():
             spec = self.sources.specs[name]
             text = f"{age:.2f} s ago" if math.isfinite(age) else "no scan yet"
+            memory = self.sources.memories[name]
             text += (f", {self.sources.taken[name]} taken, {self.sources.skipped[name]} skipped, "
-                     f"{len(self.sources.memories[name].points)} points")
+                     f"{len(memory.points)} points")
+            if spec.type == DEPTH:
+                text += f" in {len(memory.columns)} columns"
             took = self.sources.update_times(name)
             if len(took):
                 text += f", {np.percentile(took, 50):.1f} / {np.percentile(took, 99):.1f} ms each (p50 / p99)"

@@ -28,17 +28,29 @@ from florence_common_ros.throttle import KindThrottle
 from florence_common_ros.transforms import lookup_matrix
 
 
+class _Unusable(ValueError):
+    """A scan or an image that cannot be used: ``kind`` of problem (warnings are throttled per kind)
+    and the reason."""
+
+    def __init__(self, kind, why):
+        super().__init__(why)
+        self.kind = kind
+
+
 class ScanSources:
     """``specs``: the parsed ~sources entries (obstacles.parse_sources); ``on_scan(name)`` is called
-    after each scan or depth image taken (in the subscriber's thread)."""
+    after each scan or depth image taken (in the subscriber's thread); ``depth_period`` [s]: the
+    least time between depth images taken, by their stamps (0: every one, as the monitor needs;
+    approach_me, which checks a pose when a goal comes, takes fewer)."""
 
-    def __init__(self, specs, fixed_frame, tf_buffer, tf_timeout=0.5, on_scan=None, log_prefix=""):
+    def __init__(self, specs, fixed_frame, tf_buffer, tf_timeout=0.5, on_scan=None, log_prefix="", depth_period=0.0):
         self.specs = {s.name: s for s in specs}
         self.fixed_frame = fixed_frame
         self.tf_buffer = tf_buffer
         self.tf_timeout = tf_timeout
         self.on_scan = on_scan
         self.log_prefix = log_prefix
+        self.depth_period = float(depth_period)
         self.warn = KindThrottle(log_prefix)  # per source and problem: one does not silence another
         self.lock = threading.Lock()
         self.memories = {s.name: make_memory(s) for s in specs}
@@ -97,23 +109,32 @@ class ScanSources:
     def _on_camera_info(self, msg, name):
         self.camera_info[name] = msg
 
-    def _on_depth(self, msg, name):
-        frame = msg.header.frame_id.lstrip("/")
-        if not frame:
-            return self._skip(name, "frame", "the image has no frame_id")
+    def _decode(self, msg, name):
+        """(depth [H, W] float32 [m], NaN for no return; its depth_memory.Camera) of a depth image;
+        _Unusable naming the kind of problem when it cannot be used."""
+        if not msg.header.frame_id.lstrip("/"):
+            raise _Unusable("frame", "the image has no frame_id")
         info = self.camera_info.get(name)
         if info is None:
-            return self._skip(name, "camera_info", f"no camera_info on {camera_info_topic(self.specs[name])} yet")
+            raise _Unusable("camera_info", f"no camera_info on {camera_info_topic(self.specs[name])} yet")
         if (info.width, info.height) != (msg.width, msg.height):
-            return self._skip(name, "camera_info",
-                              f"camera_info is {info.width}x{info.height}, the image {msg.width}x{msg.height}")
+            raise _Unusable("camera_info",
+                            f"camera_info is {info.width}x{info.height}, the image {msg.width}x{msg.height}")
+        try:
+            return depth_image_metres(msg), Camera.from_k(info.K, info.width, info.height)
+        except ValueError as exc:
+            raise _Unusable("decode", str(exc)) from None
+
+    def _on_depth(self, msg, name):
+        if 0.0 <= msg.header.stamp.to_sec() - self.memories[name].stamp < self.depth_period:
+            return None  # not wanted yet (and not a problem; time going back is taken)
         start = time.perf_counter()
         try:
-            camera = Camera.from_k(info.K, info.width, info.height)
-            depth = depth_image_metres(msg)
-        except ValueError as exc:
-            return self._skip(name, "decode", str(exc))
+            depth, camera = self._decode(msg, name)
+        except _Unusable as exc:
+            return self._skip(name, exc.kind, str(exc))
         decoded = time.perf_counter()
+        frame = msg.header.frame_id.lstrip("/")
         pose, why = lookup_matrix(self.tf_buffer, self.fixed_frame, frame, msg.header.stamp, self.tf_timeout)
         if pose is None:
             return self._skip(name, "tf", why)
@@ -126,8 +147,9 @@ class ScanSources:
 
     def points(self):
         """(every source's obstacle points [N, 3] in the fixed frame, each point's padding [N] [m])."""
-        with self.lock:
-            parts = [(m.points, self.specs[name].padding) for name, m in self.memories.items()]
+        with self.lock:  # a depth memory's points in the plane: one per column
+            parts = [(m.columns if self.specs[name].type == DEPTH else m.points, self.specs[name].padding)
+                     for name, m in self.memories.items()]
         if not parts:
             return np.zeros((0, 3)), np.zeros(0)
         return (np.vstack([p for p, _ in parts]),
