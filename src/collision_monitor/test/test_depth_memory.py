@@ -141,6 +141,23 @@ def test_a_person_who_walks_away_from_the_blind_zone_is_cleared():
     assert np.all((person_points[:, 2] < 0.40) | (person_points[:, 2] > 0.68))
 
 
+def test_a_person_followed_leaves_no_points_on_their_track():
+    """Regression: a robot following 1.1 m behind a person at 0.5 m/s. Their feet and shoulders leave
+    the bottom and the top of the view as it closes in, unseen through; kept as blind once near, they
+    stopped the robot on the track (test_enablers_sim's doorway). Seen from afar, they only last the
+    memory time."""
+    m = DepthMemory(memory=1.5)
+    for k in range(60):  # 4 s at 15 Hz
+        px = 1.5 + 0.5 * k / 15  # the person's back [m]
+        person = (px, -0.2, 0.0, px + 0.3, 0.2, 1.7)
+        x = px - 1.1  # the camera
+        m.update(frame([person, WALL], x=x, stamp=k / 15))
+        # the robot's stop zone reaches about 0.32 m ahead of the camera (its centre 0.09 m ahead, a
+        # 0.17 m radius, 0.06 m to stop); the points left behind the person last 1.5 s, 0.75 m of track
+        p = m.points[(m.points[:, 0] > x) & (m.points[:, 0] < x + 0.3) & (np.abs(m.points[:, 1]) < 0.3)]
+        assert not len(p), f"at {x:.2f} m: {len(p)} points on the track, the nearest {np.min(p[:, 0]) - x:.2f} m ahead"
+
+
 def test_a_person_stepping_in_front_hides_what_is_behind_for_the_memory_time():
     box = (2.0, -0.3, 0.0, 2.3, 0.3, 0.8)
     person = (1.2, -0.6, 0.0, 1.4, 0.6, 1.7)
@@ -276,6 +293,12 @@ def test_classify_table():
     f.depth[110:, :] = np.nan  # no floor return at the bottom rows: (1.0, 0, 0.02) looks at nothing
     points = np.array([p for p, _ in cases])
     assert list(classify(points, f, blind_range=0.7, margin=0.1)) == [v for _, v in cases]
+    # too near to see, but last seen from farther than blind_range: not blind (a person's feet)
+    seen_from = np.full(len(cases), 0.6)
+    seen_from[[5, 6]] = 1.2
+    verdicts = [v for _, v in cases]
+    verdicts[5:7] = [UNKNOWN, UNKNOWN]
+    assert list(classify(points, f, 0.7, 0.1, seen_from)) == verdicts
     assert list(classify(np.zeros((0, 3)), f, 0.7, 0.1)) == []
 
 

@@ -24,9 +24,13 @@ Each frame:
    - BLIND: in front of the camera (the half-space its optical axis points into) within
      ``blind_range`` of it in the horizontal plane, where it does not see the point: outside the
      image (beside it, above or below) or on a pixel without depth (too near: a seat the robot
-     drove up to). Kept as long as it is there, like ObstacleMemory's blind zone (the fake laser
-     kept what was nearer than its range_min over its +-90 degrees): the robot may turn or arc
-     into what is beside it;
+     drove up to), *and last seen from within blind_range*. Kept as long as it is there, like
+     ObstacleMemory's blind zone (the fake laser kept what was nearer than its range_min over its
+     +-90 degrees): the robot may turn or arc into what is beside it. A point last seen from
+     farther that comes this near unseen is UNKNOWN: a person's feet or shoulders, seen from 1.1 m
+     and more by a robot following them, leave the bottom or the top of the view before the robot
+     reaches the place (below about 0.15 m or above 0.95 m at 1 m); kept for good, they stopped
+     the robot on the person's track;
    - BEHIND the camera, or OUTSIDE the image farther away: not observed, kept for ``memory`` s
      after last seen; UNKNOWN, on a pixel without depth farther away (no return): the same;
    - SEEN_THROUGH when the pixel and every pixel with depth next to it read more than ``margin``
@@ -118,12 +122,13 @@ def to_camera(points, pose):
     return (np.asarray(points, dtype=float) - m[:3, 3]) @ m[:3, :3]
 
 
-def classify(points, frame, blind_range, margin):
+def classify(points, frame, blind_range, margin, seen_from=None):
     """The verdict (OBSERVED ... UNKNOWN, see the module) on each remembered point [N, 3] of the
     fixed frame in ``frame``; ``blind_range`` [m]: a point in front of the camera this near to it
     in the horizontal plane (hypot of optical x and z: the camera's height and tilt aside) that it
-    does not see is too near for it; ``margin`` [m] of depth between a point and a return beyond
-    or before it."""
+    does not see is too near for it, if it was last seen from within that distance (``seen_from``
+    [N] [m]: the distance it was last seen from; None: all were); ``margin`` [m] of depth between
+    a point and a return beyond or before it."""
     n = len(points)
     verdict = np.full(n, OBSERVED, dtype=np.int8)
     if not n:
@@ -137,6 +142,8 @@ def classify(points, frame, blind_range, margin):
     v = np.rint(cam.fy * local[:, 1] / zs + cam.cy)
     outside = ~behind & ((u < 0) | (u >= cam.width))
     near = ~behind & (np.hypot(local[:, 0], z) <= blind_range)
+    if seen_from is not None:
+        near &= np.asarray(seen_from) <= blind_range
     in_view = ~behind & ~outside
     depth = np.asarray(frame.depth, dtype=np.float32)
     h, w = depth.shape
@@ -189,6 +196,7 @@ class DepthMemory:
         self.target_width, self.resolution = int(target_width), float(resolution)
         self.points = np.zeros((0, 3))
         self.seen_at = np.zeros(0)  # [s] when each point was last seen
+        self.seen_from = np.zeros(0)  # [m] from how far (horizontally) each point was last seen
         self.columns = np.zeros((0, 3))  # one of the points per column of resolution square
         self.stamp = -math.inf  # [s] of the last frame
         self.counts = np.zeros(len(VERDICTS), dtype=int)  # verdicts of the last frame
@@ -204,6 +212,11 @@ class DepthMemory:
 
     def fresh_points(self, frame):
         """The frame's obstacle points [N, 3] in the fixed frame (before thinning)."""
+        return self._fresh(frame)[0]
+
+    def _fresh(self, frame):
+        """(the frame's obstacle points [N, 3] in the fixed frame, the distance [N] [m] each was seen
+        from in the camera's horizontal plane)."""
         cam = frame.camera
         depth = np.asarray(frame.depth, dtype=np.float32)
         if depth.shape != (cam.height, cam.width):
@@ -214,32 +227,35 @@ class DepthMemory:
             ok = np.isfinite(z) & (z > self.self_range) & (z > 0) & (z <= self.max_range)
         m = np.asarray(frame.pose, dtype=float)
         rays = self._rays_for(cam, stride)[ok]
-        pts = (rays * z[ok, None]) @ m[:3, :3].T + m[:3, 3]
+        local = rays * z[ok, None]
+        pts = local @ m[:3, :3].T + m[:3, 3]
         band = (pts[:, 2] >= self.min_height) & (pts[:, 2] <= self.max_height)
-        return pts[band]
+        return pts[band], np.hypot(local[band, 0], local[band, 2])
 
     def update(self, frame):
         """Take a frame; returns the number of points remembered from before."""
-        fresh = self.fresh_points(frame)
-        verdict = classify(self.points, frame, self.blind_range, self.margin)
+        fresh, fresh_from = self._fresh(frame)
+        verdict = classify(self.points, frame, self.blind_range, self.margin, self.seen_from)
         self.counts = np.bincount(verdict, minlength=len(VERDICTS))
         stamp = float(frame.stamp)
         seen_at = np.where(verdict == BLIND, stamp, self.seen_at)  # blind in front: kept while it is there
         keep = KEPT[verdict] & (stamp - seen_at <= self.memory)
         points = np.vstack([fresh, self.points[keep]])
         times = np.concatenate([np.full(len(fresh), stamp), seen_at[keep]])
+        seen_from = np.concatenate([fresh_from, self.seen_from[keep]])
         # one point per voxel, the first (fresh before remembered)
         _, first = np.unique(voxel_keys(points, self.resolution), return_index=True)
         first.sort()
-        points, times = points[first], times[first]
+        points, times, seen_from = points[first], times[first], seen_from[first]
         _, column = np.unique(voxel_keys(points, self.resolution, dims=2), return_index=True)
         # replaced whole, each in one assignment: a reader in another thread sees one frame's arrays
-        self.points, self.seen_at, self.columns = points, times, points[column]
+        self.points, self.seen_at, self.seen_from, self.columns = points, times, seen_from, points[column]
         self.stamp = stamp
         return int(np.count_nonzero(first >= len(fresh)))
 
     def clear(self):
-        self.points, self.seen_at, self.columns = np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3))
+        self.points, self.seen_at, self.seen_from = np.zeros((0, 3)), np.zeros(0), np.zeros(0)
+        self.columns = np.zeros((0, 3))
 
     def age(self, now):
         """[s] since the last frame."""

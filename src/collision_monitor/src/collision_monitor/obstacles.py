@@ -54,11 +54,13 @@ SOURCE = ParamTable(
     Param("max_range", float, 3.0, "depth: farthest point kept, along the optical axis", unit="m", gt=0),
     Param("blind_range", float, 0.7, "depth: a remembered point in front of the camera (its optical axis' half-space) "
           "this near to it (horizontally) that it does not see (no depth at its pixel; beside, above or below the "
-          "image) is too near for it and kept as long as it is there", unit="m", ge=0),
+          "image) and that it last saw from this near is too near for it: kept as long as it is there", unit="m",
+          ge=0),
     Param("target_width", int, 160, "depth: fresh points from about this many columns (every "
           "round(width / target_width)-th row and column); remembered points are judged at every pixel", unit="px",
           ge=1),
-    Param("resolution", float, 0.03, "depth: one point is kept per cube of this edge", unit="m", gt=0),
+    Param("resolution", float, 0.03, "depth: one point is kept per cube of this edge; commands are judged against "
+          "one per column of this square", unit="m", gt=0),
     prefix="",
 )
 DEPTH_ONLY = ("camera_info", "min_height", "max_height", "max_range", "blind_range", "target_width", "resolution")
