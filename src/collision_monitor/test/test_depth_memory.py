@@ -272,6 +272,26 @@ def test_the_columns_are_the_points_in_the_plane():
     assert all(any(np.all(c == p) for p in m.points) for c in m.columns[:20]), "real points"
 
 
+def test_clear_forgets_everything_even_during_an_update():
+    m = DepthMemory()
+    m.update(frame([SEAT, WALL]))
+    m.clear()
+    assert not len(m.points) and not len(m.columns)
+    m.update(frame([SEAT, WALL], x=0.3, stamp=0.1))
+    assert len(m.points)
+    f = frame([WALL], x=0.5, stamp=0.2)  # whatever the verdicts: only this frame's points stay
+    real = m._fresh
+
+    def fresh_then_cleared(frame):  # another thread clears while this update runs
+        out = real(frame)
+        m.clear()
+        return out
+
+    m._fresh = fresh_then_cleared
+    assert m.update(f) == 0
+    assert not np.any(in_box(m.points, SEAT)) and np.all(in_box(m.points, WALL))
+
+
 def test_one_point_per_voxel():
     m = DepthMemory(resolution=0.05)
     m.update(frame([WALL]))

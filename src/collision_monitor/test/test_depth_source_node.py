@@ -192,3 +192,22 @@ def test_16uc1_millimetres_are_taken(monitor):
         assert state.state == "slow" and state.nearest.x == pytest.approx(WALL, abs=0.01), state
     finally:
         feed["kind"] = "32FC1"
+
+
+def test_forget_drops_the_remembered_points(monitor):
+    """~forget (the robot was carried): the wall goes, and comes back with the next image."""
+    from std_srvs.srv import Trigger
+
+    rospy, cmd, states, feed, _ = monitor
+    feed["info"] = True
+    wait_for(lambda: send(cmd, states, 0.3, 0.0).state == "slow", 15, what="the wall")
+    feed["kind"] = "rgb8"  # no usable image for a while: nothing refills the memory
+    try:
+        time.sleep(0.3)
+        answer = rospy.ServiceProxy("/depth_monitor/forget", Trigger)()
+        assert answer.success and "forgot" in answer.message, answer
+        state = send(cmd, states, 0.3, 0.0)
+        assert state.state in ("clear", "blind") and "stop distance" not in state.reason, state
+    finally:
+        feed["kind"] = "32FC1"
+    wait_for(lambda: send(cmd, states, 0.3, 0.0).state == "slow", 15, what="the wall back")

@@ -200,6 +200,7 @@ class DepthMemory:
         self.columns = np.zeros((0, 3))  # one of the points per column of resolution square
         self.stamp = -math.inf  # [s] of the last frame
         self.counts = np.zeros(len(VERDICTS), dtype=int)  # verdicts of the last frame
+        self.cleared = 0  # clear() calls: an update running meanwhile keeps only its fresh points
         self._rays = {}  # (camera, stride) -> unit-depth rays [M, 3] of the subsampled pixels
 
     def _rays_for(self, camera, stride):
@@ -234,26 +235,37 @@ class DepthMemory:
 
     def update(self, frame):
         """Take a frame; returns the number of points remembered from before."""
+        cleared = self.cleared
+        old_points, old_seen_at, old_from = self.points, self.seen_at, self.seen_from
         fresh, fresh_from = self._fresh(frame)
-        verdict = classify(self.points, frame, self.blind_range, self.margin, self.seen_from)
+        verdict = classify(old_points, frame, self.blind_range, self.margin, old_from)
         self.counts = np.bincount(verdict, minlength=len(VERDICTS))
         stamp = float(frame.stamp)
-        seen_at = np.where(verdict == BLIND, stamp, self.seen_at)  # blind in front: kept while it is there
+        seen_at = np.where(verdict == BLIND, stamp, old_seen_at)  # blind in front: kept while it is there
         keep = KEPT[verdict] & (stamp - seen_at <= self.memory)
-        points = np.vstack([fresh, self.points[keep]])
-        times = np.concatenate([np.full(len(fresh), stamp), seen_at[keep]])
-        seen_from = np.concatenate([fresh_from, self.seen_from[keep]])
-        # one point per voxel, the first (fresh before remembered)
+        kept = self._store(np.vstack([fresh, old_points[keep]]),
+                           np.concatenate([np.full(len(fresh), stamp), seen_at[keep]]),
+                           np.concatenate([fresh_from, old_from[keep]]), len(fresh))
+        if self.cleared != cleared:  # cleared by another thread meanwhile: only this frame's points
+            kept = self._store(fresh, np.full(len(fresh), stamp), fresh_from, len(fresh))
+        self.stamp = stamp
+        return kept
+
+    def _store(self, points, seen_at, seen_from, fresh):
+        """Keep one of ``points`` (the first ``fresh`` of them this frame's) per voxel, the first;
+        returns how many of the kept ones are not fresh."""
         _, first = np.unique(voxel_keys(points, self.resolution), return_index=True)
         first.sort()
-        points, times, seen_from = points[first], times[first], seen_from[first]
+        points, seen_at, seen_from = points[first], seen_at[first], seen_from[first]
         _, column = np.unique(voxel_keys(points, self.resolution, dims=2), return_index=True)
         # replaced whole, each in one assignment: a reader in another thread sees one frame's arrays
-        self.points, self.seen_at, self.seen_from, self.columns = points, times, seen_from, points[column]
-        self.stamp = stamp
-        return int(np.count_nonzero(first >= len(fresh)))
+        self.points, self.seen_at, self.seen_from, self.columns = points, seen_at, seen_from, points[column]
+        return int(np.count_nonzero(first >= fresh))
 
     def clear(self):
+        """Forget every point (safe to call while another thread updates: that update keeps only
+        its fresh points)."""
+        self.cleared += 1
         self.points, self.seen_at, self.seen_from = np.zeros((0, 3)), np.zeros(0), np.zeros(0)
         self.columns = np.zeros((0, 3))
 

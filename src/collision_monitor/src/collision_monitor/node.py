@@ -14,6 +14,11 @@ ROS Subscribers:
         /camera/depth/image and /camera/depth/camera_info, the Kinect; /kinect_scan, its fake
         laser, is the fallback).
 
+ROS Services:
+    ~forget (std_srvs/Trigger): drop every remembered obstacle point (the robot was carried:
+        odometry did not move, the world did; florence_sim's scenario tests carry it between tests).
+        What the sensors see comes back with their next scan or image.
+
 ROS Publishers:
     cmd_vel (geometry_msgs/Twist): each command as judged, at once (velocity_filter's input); and,
         when a new scan shows that the last command (younger than ~recheck_window) must slow down
@@ -34,6 +39,7 @@ import rospy
 import tf2_ros
 from geometry_msgs.msg import Twist
 from std_msgs.msg import String
+from std_srvs.srv import Trigger, TriggerResponse
 
 from collision_monitor.monitor import BLIND, CLEAR, SLOW, STOP, TURN, MonitorConfig, blind, decide
 from collision_monitor.msg import MonitorState
@@ -120,6 +126,7 @@ class CollisionMonitorNode:
         self.diag.add("Collision monitor", self._diagnose)
         self.sources = ScanSources(specs, self.fixed_frame, self.tf_buffer, p.tf_timeout,
                                    on_scan=self._on_scan if self.recheck_window > 0 else None, log_prefix=LOG)
+        self.forget_srv = rospy.Service("~forget", Trigger, self._forget)
         self.active_sub = rospy.Subscriber("active_input", String, self._on_active, queue_size=1)
         self.sub = rospy.Subscriber("cmd_vel_in", Twist, self.on_command, queue_size=10, tcp_nodelay=True)
         shape = (f"polygon of {len(p.footprint)} points" if p.footprint else f"circle of {p.robot_radius} m")
@@ -128,6 +135,12 @@ class CollisionMonitorNode:
 
     def _on_active(self, msg):
         self.active_input = msg.data
+
+    def _forget(self, _req):
+        points, _ = self.sources.points()
+        self.sources.forget()
+        rospy.loginfo(LOG + "forgot %d obstacle points (~forget)", len(points))
+        return TriggerResponse(success=True, message=f"forgot {len(points)} obstacle points")
 
     # --- judging ---------------------------------------------------------------------------------
     def judge(self, v, w):

@@ -155,6 +155,13 @@ class ScanSources:
         return (np.vstack([p for p, _ in parts]),
                 np.concatenate([np.full(len(p), pad) for p, pad in parts]))
 
+    def forget(self):
+        """Drop every remembered point (the robot was carried: odometry did not move, the world did);
+        each source's next scan or image fills its memory again."""
+        with self.lock:
+            for memory in self.memories.values():
+                memory.clear()
+
     def update_times(self, name):
         """[ms] wall time each of the last (up to 300) scans or images of ``name`` took (decoding and
         the memory's update; not the wait for tf)."""
