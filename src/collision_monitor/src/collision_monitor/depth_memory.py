@@ -44,9 +44,11 @@ Each frame:
    ``resolution`` square: the obstacles in the plane, what the monitor judges a command against
    (about 30 times fewer than the 3-D points).
 
-A person who walks away is cleared by the pixels that now see the wall behind where they stood;
-what leaves the view unseen stays (the safe mistake): a person's ankles below the view in front
-remain an obstacle until the robot turns away or backs off far enough to see the place again.
+A person who walks away is cleared by the pixels that now see the wall behind where they stood.
+What was seen near and leaves the view unseen stays (the safe mistake): the parts of a person who
+stood within blind_range that are above or below the view remain an obstacle in front until the
+robot turns away or backs off far enough to see the place again (or is told to forget: the node's
+~forget, after the robot was carried).
 """
 
 import math
