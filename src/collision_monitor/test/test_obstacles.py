@@ -5,7 +5,8 @@ import math
 
 import numpy as np
 import pytest
-from collision_monitor.obstacles import ObstacleMemory, Scan, parse_sources
+from collision_monitor.depth_memory import DepthMemory
+from collision_monitor.obstacles import ObstacleMemory, Scan, camera_info_topic, make_memory, parse_sources
 
 from florence_common import pose
 from florence_common.params import ParamError
@@ -110,7 +111,27 @@ def test_parse_sources():
              ([{"topic": "/scan"}], "name must be a non-empty"),
              ([{"name": "a", "topic": "/scan", "timeout": -1}], r"sources\[0\] \(a\): timeout must be > 0"),
              ([{"name": "a", "topic": "/scan", "colour": 1}], "unknown parameter"),
-             ([{"name": "a", "topic": "/s1"}, {"name": "a", "topic": "/s2"}], "names must be unique")]
+             ([{"name": "a", "topic": "/s1"}, {"name": "a", "topic": "/s2"}], "names must be unique"),
+             ([{"name": "a", "topic": "/s", "type": "cloud"}], r"type must be one of 'scan', 'depth'"),
+             ([{"name": "a", "topic": "/s", "blind_range": 0.6}], r"\(a\): blind_range only apply to type depth"),
+             ([{"name": "a", "topic": "/i", "type": "depth", "min_height": 1.0, "max_height": 0.5}],
+              "min_height 1.0 > max_height 0.5"),
+             ([{"name": "a", "topic": "/i", "type": "depth", "target_width": 0}], "target_width must be >= 1"),
+             ([{"name": "a", "topic": "/i", "type": "depth", "resolution": 0.0}], "resolution must be > 0")]
     for raw, message in cases:
         with pytest.raises(ParamError, match=message):
             parse_sources(raw)
+
+
+def test_depth_sources_get_a_depth_memory_and_their_camera_info():
+    scan, depth, named = parse_sources([
+        {"name": "laser", "topic": "/scan"},
+        {"name": "kinect", "topic": "/camera/depth/image", "type": "depth", "blind_range": 0.6, "padding": 0.02},
+        {"name": "other", "topic": "image", "type": "depth", "camera_info": "/cam/info"}])
+    assert isinstance(make_memory(scan), ObstacleMemory)
+    memory = make_memory(depth)
+    assert isinstance(memory, DepthMemory) and memory.blind_range == 0.6 and memory.max_range == 3.0
+    assert (memory.min_height, memory.max_height, memory.target_width) == (0.05, 1.0, 160)
+    assert camera_info_topic(depth) == "/camera/depth/camera_info"
+    assert camera_info_topic(named) == "/cam/info"
+    assert camera_info_topic(parse_sources([{"name": "a", "topic": "image", "type": "depth"}])[0]) == "camera_info"

@@ -19,7 +19,8 @@ ROS Subscribers:
     tracked_users (user_tracker_ni/TrackedUsers): people with persistent ids and positions.
     scan (sensor_msgs/LaserScan): the Hokuyo; close up, a leg pair where the person is confirms them
         (user_tracker_ni.laser_legs, ~closeup_range).
-    <topic of each source> (sensor_msgs/LaserScan): obstacles (/scan, /kinect_scan).
+    <topic of each source> (sensor_msgs/LaserScan, or a depth image with its camera_info): obstacles
+        (/scan; /camera/depth/image, of which 2 frames a second are taken).
 
 ROS Publishers:
     cmd_vel (geometry_msgs/Twist): while a goal runs (the launch files remap it to
@@ -102,7 +103,9 @@ class ApproachMeNode(PersonBehaviour):
                          LOG)
         self.last_step = None  # (Step, robot pose, person xy) of the last control cycle
         self.goal_pub = rospy.Publisher("~goal_pose", PoseStamped, queue_size=1, latch=True)
-        self.obstacles = ScanSources(specs, "odom", self.tf_buffer, log_prefix=LOG) if specs else None
+        # a depth source at 2 frames a second: its 3-D memory costs the monitor 4-6 ms a frame, and here
+        # the points only check the pose a goal asks for
+        self.obstacles = ScanSources(specs, "odom", self.tf_buffer, log_prefix=LOG, depth_period=0.5) if specs else None
         self.leg_params = laser_legs.LegParams()
         self.closeup = None  # (ROS time [s], leg pairs [P, 2] in the tracker's frame) of the last scan
         self.closeup_confirmed = 0

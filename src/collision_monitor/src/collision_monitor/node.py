@@ -1,6 +1,6 @@
 """collision_monitor_node: between cmd_vel_mux and velocity_filter, every velocity command is
-judged against the obstacles the laser and the Kinect's fake laser see (collision_monitor.monitor
-says how) and passed, slowed or stopped.
+judged against the obstacles the laser and the Kinect see (collision_monitor.monitor says how) and
+passed, slowed or stopped.
 
 ROS Parameters: PARAMS below (rendered in the README); ~sources entries: obstacles.SOURCE.
 
@@ -9,16 +9,23 @@ ROS Subscribers:
         component is dropped with a throttled warning (velocity_filter keeps the previous one).
     active_input (std_msgs/String, latched): the multiplexer's input in control (cmd_vel_mux's
         ~active), for ~input_stop_distances.
-    <topic of each source> (sensor_msgs/LaserScan): the obstacle sensors (config/sources.yaml:
-        /scan, the Hokuyo; /kinect_scan, the Kinect's fake laser).
+    <topic of each source> (sensor_msgs/LaserScan, or sensor_msgs/Image and sensor_msgs/CameraInfo
+        for a depth source): the obstacle sensors (config/sources.yaml: /scan, the Hokuyo;
+        /camera/depth/image and /camera/depth/camera_info, the Kinect; /kinect_scan, its fake
+        laser, is the fallback).
+
+ROS Services:
+    ~forget (std_srvs/Trigger): drop every remembered obstacle point (the robot was carried:
+        odometry did not move, the world did; florence_sim's scenario tests carry it between tests).
+        What the sensors see comes back with their next scan or image.
 
 ROS Publishers:
     cmd_vel (geometry_msgs/Twist): each command as judged, at once (velocity_filter's input); and,
         when a new scan shows that the last command (younger than ~recheck_window) must slow down
         more, that command again as judged now. One zero Twist on shutdown.
     ~state (collision_monitor/MonitorState): the judgement of every command published.
-    /diagnostics: the state, the commands slowed and stopped, each source's age and problems, the
-        time to judge a command (p50 / p99).
+    /diagnostics: the state, the commands slowed and stopped, each source's age, points, time to
+        take a scan or image (p50 / p99) and problems, the time to judge a command (p50 / p99).
 """
 
 import dataclasses
@@ -32,10 +39,11 @@ import rospy
 import tf2_ros
 from geometry_msgs.msg import Twist
 from std_msgs.msg import String
+from std_srvs.srv import Trigger, TriggerResponse
 
 from collision_monitor.monitor import BLIND, CLEAR, SLOW, STOP, TURN, MonitorConfig, blind, decide
 from collision_monitor.msg import MonitorState
-from collision_monitor.obstacles import parse_sources
+from collision_monitor.obstacles import DEPTH, parse_sources
 from collision_monitor.sources import ScanSources
 from florence_common.params import FRAME, Param, ParamTable
 from florence_common_ros.diagnostics import ERROR, OK, WARN, Diagnostics
@@ -55,8 +63,8 @@ def _footprint_problem(value):
 
 
 PARAMS = ParamTable(
-    Param("sources", list, None, "the obstacle sensors, each {name, topic, timeout, required, self_range, memory} "
-          "(config/sources.yaml; the table below)", optional=True),
+    Param("sources", list, None, "the obstacle sensors, each {name, topic, type, timeout, required, self_range, "
+          "padding, memory, ...} (config/sources.yaml; the table below)", optional=True),
     Param("fixed_frame", FRAME, "odom", "frame the obstacle points are kept in while the robot moves"),
     Param("base_frame", FRAME, "base_footprint", "the robot's frame (commands are in it)"),
     Param("footprint", list, [], "polygon [[x, y], ...] in the base frame; [] = a circle of ~robot_radius", unit="m",
@@ -118,6 +126,7 @@ class CollisionMonitorNode:
         self.diag.add("Collision monitor", self._diagnose)
         self.sources = ScanSources(specs, self.fixed_frame, self.tf_buffer, p.tf_timeout,
                                    on_scan=self._on_scan if self.recheck_window > 0 else None, log_prefix=LOG)
+        self.forget_srv = rospy.Service("~forget", Trigger, self._forget)
         self.active_sub = rospy.Subscriber("active_input", String, self._on_active, queue_size=1)
         self.sub = rospy.Subscriber("cmd_vel_in", Twist, self.on_command, queue_size=10, tcp_nodelay=True)
         shape = (f"polygon of {len(p.footprint)} points" if p.footprint else f"circle of {p.robot_radius} m")
@@ -126,6 +135,12 @@ class CollisionMonitorNode:
 
     def _on_active(self, msg):
         self.active_input = msg.data
+
+    def _forget(self, _req):
+        points, _ = self.sources.points()
+        self.sources.forget()
+        rospy.loginfo(LOG + "forgot %d obstacle points (~forget)", len(points))
+        return TriggerResponse(success=True, message=f"forgot {len(points)} obstacle points")
 
     # --- judging ---------------------------------------------------------------------------------
     def judge(self, v, w):
@@ -226,7 +241,14 @@ class CollisionMonitorNode:
         for name, age in ages.items():
             spec = self.sources.specs[name]
             text = f"{age:.2f} s ago" if math.isfinite(age) else "no scan yet"
-            text += f", {self.sources.taken[name]} taken, {self.sources.skipped[name]} skipped"
+            memory = self.sources.memories[name]
+            text += (f", {self.sources.taken[name]} taken, {self.sources.skipped[name]} skipped, "
+                     f"{len(memory.points)} points")
+            if spec.type == DEPTH:
+                text += f" in {len(memory.columns)} columns"
+            took = self.sources.update_times(name)
+            if len(took):
+                text += f", {np.percentile(took, 50):.1f} / {np.percentile(took, 99):.1f} ms each (p50 / p99)"
             if self.sources.problem[name]:
                 text += f" (last: {self.sources.problem[name]})"
             stat.add(f"source {name} ({spec.topic}{', required' if spec.required else ''})", text)

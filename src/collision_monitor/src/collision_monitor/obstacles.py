@@ -10,20 +10,33 @@ chair seat it saw on the way in is still there when it is too near to see), for 
 there, and ``memory`` s once the robot turned away from it. A remembered point the new scan looks
 at and sees through is gone (it moved away). A person who left the blind zone unseen is an obstacle
 until the robot backs off far enough to see the place again: the safe mistake.
+
+A scan flattens what it sees: a farther return at a bearing "sees through" everything nearer at that
+bearing, even what lies below the ray (the Kinect's fake laser close to a chair seat, issue 19). A
+depth camera is better given as a depth image (``type: depth``): depth_memory.DepthMemory keeps its
+points in 3-D and clears them only by the pixels that look at them.
 """
 
 import math
+import posixpath
 from dataclasses import dataclass
 
 import numpy as np
 
+from collision_monitor.depth_memory import DepthMemory
 from florence_common.params import Param, ParamError, ParamTable
 from florence_common.scan import scan_points
 
-# One entry of the node's ~sources list (config/collision_monitor.yaml).
+# One entry of the node's ~sources list (config/sources.yaml). The fields after ``memory`` are a
+# depth source's (depth_memory.DepthMemory); a scan source given one is refused.
+SCAN, DEPTH = "scan", "depth"
 SOURCE = ParamTable(
     Param("name", str, None, "the source's name in /diagnostics and ~state (required)", optional=True),
-    Param("topic", str, None, "its sensor_msgs/LaserScan topic (required)", optional=True),
+    Param("topic", str, None, "its sensor_msgs/LaserScan topic, or a depth source's sensor_msgs/Image (32FC1 [m] "
+          "or 16UC1 [mm]) (required)", optional=True),
+    Param("type", str, SCAN, "scan: a LaserScan, remembered in 2-D (obstacles.ObstacleMemory); depth: a depth "
+          "image, remembered in 3-D and cleared only by the pixels that look at a point (depth_memory.DepthMemory)",
+          choices=(SCAN, DEPTH)),
     Param("timeout", float, 0.5, "a source silent this long is stale", unit="s", gt=0),
     Param("required", bool, True, "while it is stale the monitor stops every linear motion (turning in place "
           "passes); an optional source does so only once it has been heard from (a robot without it is only "
@@ -31,12 +44,26 @@ SOURCE = ParamTable(
     Param("self_range", float, 0.0, "returns nearer than this to the sensor are the robot's own structure", unit="m",
           ge=0),
     Param("padding", float, 0.0, "the clearance to this sensor's points counts this much less (a sensor that may "
-          "place an obstacle's edge beyond it: the Kinect loses the edge pixels of a seat seen at a grazing angle)",
-          unit="m", ge=0),
+          "place an obstacle's edge beyond it)", unit="m", ge=0),
     Param("memory", float, 3.0, "how long points the sensor can no longer see (beside or behind the robot, hidden) "
           "are remembered; what is too near for it in front is kept as long as it is there", unit="s", ge=0),
+    Param("camera_info", str, "", "depth: the image's sensor_msgs/CameraInfo topic (empty: camera_info beside "
+          "topic)"),
+    Param("min_height", float, 0.05, "depth: lowest point kept, z in ~fixed_frame (the floor)", unit="m"),
+    Param("max_height", float, 1.0, "depth: highest point kept", unit="m"),
+    Param("max_range", float, 3.0, "depth: farthest point kept, along the optical axis", unit="m", gt=0),
+    Param("blind_range", float, 0.7, "depth: a remembered point in front of the camera (its optical axis' half-space) "
+          "this near to it (horizontally) that it does not see (no depth at its pixel; beside, above or below the "
+          "image) and that it last saw from this near is too near for it: kept as long as it is there", unit="m",
+          ge=0),
+    Param("target_width", int, 160, "depth: fresh points from about this many columns (every "
+          "round(width / target_width)-th row and column); remembered points are judged at every pixel", unit="px",
+          ge=1),
+    Param("resolution", float, 0.03, "depth: one point is kept per cube of this edge; commands are judged against "
+          "one per column of this square", unit="m", gt=0),
     prefix="",
 )
+DEPTH_ONLY = ("camera_info", "min_height", "max_height", "max_range", "blind_range", "target_width", "resolution")
 
 
 def parse_sources(raw):
@@ -54,6 +81,11 @@ def parse_sources(raw):
         for key in ("name", "topic"):
             if not source[key]:
                 raise ParamError(f"~sources[{i}]: {key} must be a non-empty string, got {source[key]!r}")
+        where = f"~sources[{i}] ({source.name})"
+        if source.type == SCAN and set(entry) & set(DEPTH_ONLY):
+            raise ParamError(f"{where}: {', '.join(sorted(set(entry) & set(DEPTH_ONLY)))} only apply to type depth")
+        if source.min_height > source.max_height:
+            raise ParamError(f"{where}: min_height {source.min_height} > max_height {source.max_height}")
         sources.append(source)
     for attr in ("name", "topic"):
         values = [s[attr] for s in sources]
@@ -61,6 +93,22 @@ def parse_sources(raw):
         if dupes:
             raise ParamError(f"~sources: {attr}s must be unique, repeated: {dupes}")
     return sources
+
+
+def camera_info_topic(source):
+    """The CameraInfo topic of a depth source: its ``camera_info``, or camera_info beside its image
+    topic (/camera/depth/image -> /camera/depth/camera_info)."""
+    if source.camera_info:
+        return source.camera_info
+    return posixpath.join(posixpath.dirname(source.topic), "camera_info")
+
+
+def make_memory(source):
+    """The memory for a parsed source: ObstacleMemory for a scan, DepthMemory for a depth image."""
+    if source.type == DEPTH:
+        return DepthMemory(source.memory, source.min_height, source.max_height, source.max_range, source.blind_range,
+                           source.self_range, target_width=source.target_width, resolution=source.resolution)
+    return ObstacleMemory(source.memory, source.self_range)
 
 
 @dataclass(frozen=True)

@@ -1,78 +1,172 @@
-"""Range sensors as obstacle points in a fixed frame, over ROS: one sensor_msgs/LaserScan
-subscriber and one obstacles.ObstacleMemory per source (the monitor's ~sources; approach_me uses
-the same to check that a pose is free).
+"""Range sensors as obstacle points in a fixed frame, over ROS: per source of the monitor's ~sources
+(approach_me uses the same to check that a pose is free) one subscriber and one memory: a
+sensor_msgs/LaserScan into obstacles.ObstacleMemory (``type: scan``), or a depth image
+(sensor_msgs/Image 32FC1 [m] or 16UC1 [mm], with its sensor_msgs/CameraInfo) into
+depth_memory.DepthMemory (``type: depth``).
 
-A scan is placed through tf (fixed frame <- the scan's frame, at the scan's stamp): the inverted
-Hokuyo's frame is rolled by pi, and tf turns its points right. A scan that cannot be used (no
-frame, no transform, no beams, a zero angle increment) is skipped with a throttled warning that
-says why; the source then goes stale after its timeout.
+A scan or an image is placed through tf (fixed frame <- its frame, at its stamp): the inverted
+Hokuyo's frame is rolled by pi, and tf turns its points right; the depth image's optical frame
+carries the Kinect's height and tilt. One that cannot be used (no frame, no transform, no beams, a
+zero angle increment; no camera_info yet, one of another size or without intrinsics, an encoding
+that does not decode) is skipped with a warning throttled per source that says why; the source then
+goes stale after its timeout.
 """
 
 import math
 import threading
-from collections import Counter
+import time
+from collections import Counter, deque
 
 import numpy as np
 import rospy
-from sensor_msgs.msg import LaserScan
+from sensor_msgs.msg import CameraInfo, Image, LaserScan
 
-from collision_monitor.obstacles import ObstacleMemory, Scan
+from collision_monitor.depth_memory import Camera, DepthFrame
+from collision_monitor.obstacles import DEPTH, Scan, camera_info_topic, make_memory
+from florence_common_ros.convert import depth_image_metres
+from florence_common_ros.throttle import KindThrottle
 from florence_common_ros.transforms import lookup_matrix
+
+
+class _Unusable(ValueError):
+    """A scan or an image that cannot be used: ``kind`` of problem (warnings are throttled per kind)
+    and the reason."""
+
+    def __init__(self, kind, why):
+        super().__init__(why)
+        self.kind = kind
 
 
 class ScanSources:
     """``specs``: the parsed ~sources entries (obstacles.parse_sources); ``on_scan(name)`` is called
-    after each scan taken (in the subscriber's thread)."""
+    after each scan or depth image taken (in the subscriber's thread); ``depth_period`` [s]: the
+    least time between depth images taken, by their stamps (0: every one, as the monitor needs;
+    approach_me, which checks a pose when a goal comes, takes fewer)."""
 
-    def __init__(self, specs, fixed_frame, tf_buffer, tf_timeout=0.5, on_scan=None, log_prefix=""):
+    def __init__(self, specs, fixed_frame, tf_buffer, tf_timeout=0.5, on_scan=None, log_prefix="", depth_period=0.0):
         self.specs = {s.name: s for s in specs}
         self.fixed_frame = fixed_frame
         self.tf_buffer = tf_buffer
         self.tf_timeout = tf_timeout
         self.on_scan = on_scan
         self.log_prefix = log_prefix
+        self.depth_period = float(depth_period)
+        self.warn = KindThrottle(log_prefix)  # per source and problem: one does not silence another
         self.lock = threading.Lock()
-        self.memories = {s.name: ObstacleMemory(s.memory, s.self_range) for s in specs}
+        self.memories = {s.name: make_memory(s) for s in specs}
         self.taken_at = {s.name: -math.inf for s in specs}  # [s] ROS time of the last scan taken
         self.taken = Counter()
         self.skipped = Counter()
         self.problem = {s.name: "" for s in specs}  # the last reason a scan was skipped
-        self.subs = [rospy.Subscriber(s.topic, LaserScan, self._on_scan, callback_args=s.name, queue_size=1)
-                     for s in specs]
+        self.update_ms = {s.name: deque(maxlen=300) for s in specs}  # [ms] wall time to take each one
+        self.camera_info = {}  # depth sources: name -> the latest sensor_msgs/CameraInfo
+        self.subs = []
+        for s in specs:
+            if s.type == DEPTH:
+                self.subs += [rospy.Subscriber(camera_info_topic(s), CameraInfo, self._on_camera_info,
+                                               callback_args=s.name, queue_size=1),
+                              rospy.Subscriber(s.topic, Image, self._on_depth, callback_args=s.name, queue_size=1,
+                                               buff_size=2 ** 24)]
+            else:
+                self.subs.append(rospy.Subscriber(s.topic, LaserScan, self._on_scan, callback_args=s.name,
+                                                  queue_size=1))
 
-    def _skip(self, name, why):
+    def _skip(self, name, kind, why):
+        """Count a skipped scan or image of source ``name``; warn, throttled per source and ``kind`` of
+        problem (a new problem is told at once)."""
         with self.lock:
             self.skipped[name] += 1
             self.problem[name] = why
-        rospy.logwarn_throttle(5.0, f"{self.log_prefix}{name} scan skipped: {why}")
+        what = "image" if self.specs[name].type == DEPTH else "scan"
+        self.warn((name, kind), f"{name} {what} skipped: {why}")
 
-    def _on_scan(self, msg, name):
-        frame = msg.header.frame_id.lstrip("/")
-        if not frame:
-            return self._skip(name, "the scan has no frame_id")
-        if not len(msg.ranges) or not (math.isfinite(msg.angle_increment) and msg.angle_increment != 0.0):
-            return self._skip(name, f"{len(msg.ranges)} beams with angle_increment {msg.angle_increment}")
-        pose, why = lookup_matrix(self.tf_buffer, self.fixed_frame, frame, msg.header.stamp, self.tf_timeout)
-        if pose is None:
-            return self._skip(name, why)
-        scan = Scan(np.asarray(msg.ranges, dtype=float), msg.angle_min, msg.angle_increment, msg.range_min,
-                    msg.range_max, pose, msg.header.stamp.to_sec())
+    def _taken(self, name, start):
+        """Count a scan or image of ``name`` taken, its update begun at ``start`` (perf_counter) [s]."""
         with self.lock:
-            self.memories[name].update(scan)
+            self.update_ms[name].append(1e3 * (time.perf_counter() - start))
             self.taken[name] += 1
             self.taken_at[name] = rospy.get_time()
         if self.on_scan is not None:
             self.on_scan(name)
+
+    def _on_scan(self, msg, name):
+        frame = msg.header.frame_id.lstrip("/")
+        if not frame:
+            return self._skip(name, "frame", "the scan has no frame_id")
+        if not len(msg.ranges) or not (math.isfinite(msg.angle_increment) and msg.angle_increment != 0.0):
+            return self._skip(name, "beams", f"{len(msg.ranges)} beams with angle_increment {msg.angle_increment}")
+        pose, why = lookup_matrix(self.tf_buffer, self.fixed_frame, frame, msg.header.stamp, self.tf_timeout)
+        if pose is None:
+            return self._skip(name, "tf", why)
+        start = time.perf_counter()
+        scan = Scan(np.asarray(msg.ranges, dtype=float), msg.angle_min, msg.angle_increment, msg.range_min,
+                    msg.range_max, pose, msg.header.stamp.to_sec())
+        with self.lock:
+            self.memories[name].update(scan)
+        self._taken(name, start)
+        return None
+
+    def _on_camera_info(self, msg, name):
+        self.camera_info[name] = msg
+
+    def _decode(self, msg, name):
+        """(depth [H, W] float32 [m], NaN for no return; its depth_memory.Camera) of a depth image;
+        _Unusable naming the kind of problem when it cannot be used."""
+        if not msg.header.frame_id.lstrip("/"):
+            raise _Unusable("frame", "the image has no frame_id")
+        info = self.camera_info.get(name)
+        if info is None:
+            raise _Unusable("camera_info", f"no camera_info on {camera_info_topic(self.specs[name])} yet")
+        if (info.width, info.height) != (msg.width, msg.height):
+            raise _Unusable("camera_info",
+                            f"camera_info is {info.width}x{info.height}, the image {msg.width}x{msg.height}")
+        try:
+            return depth_image_metres(msg), Camera.from_k(info.K, info.width, info.height)
+        except ValueError as exc:
+            raise _Unusable("decode", str(exc)) from None
+
+    def _on_depth(self, msg, name):
+        if 0.0 <= msg.header.stamp.to_sec() - self.memories[name].stamp < self.depth_period:
+            return None  # not wanted yet (and not a problem; time going back is taken)
+        start = time.perf_counter()
+        try:
+            depth, camera = self._decode(msg, name)
+        except _Unusable as exc:
+            return self._skip(name, exc.kind, str(exc))
+        decoded = time.perf_counter()
+        frame = msg.header.frame_id.lstrip("/")
+        pose, why = lookup_matrix(self.tf_buffer, self.fixed_frame, frame, msg.header.stamp, self.tf_timeout)
+        if pose is None:
+            return self._skip(name, "tf", why)
+        start += time.perf_counter() - decoded  # the wait for tf is not work
+        # outside the lock (only this subscriber's thread updates this memory; it replaces its
+        # points in one assignment): judging a command does not wait for a frame's few ms
+        self.memories[name].update(DepthFrame(depth, camera, pose, msg.header.stamp.to_sec()))
+        self._taken(name, start)
         return None
 
     def points(self):
         """(every source's obstacle points [N, 3] in the fixed frame, each point's padding [N] [m])."""
-        with self.lock:
-            parts = [(m.points, self.specs[name].padding) for name, m in self.memories.items()]
+        with self.lock:  # a depth memory's points in the plane: one per column
+            parts = [(m.columns if self.specs[name].type == DEPTH else m.points, self.specs[name].padding)
+                     for name, m in self.memories.items()]
         if not parts:
             return np.zeros((0, 3)), np.zeros(0)
         return (np.vstack([p for p, _ in parts]),
                 np.concatenate([np.full(len(p), pad) for p, pad in parts]))
+
+    def forget(self):
+        """Drop every remembered point (the robot was carried: odometry did not move, the world did);
+        each source's next scan or image fills its memory again."""
+        with self.lock:
+            for memory in self.memories.values():
+                memory.clear()
+
+    def update_times(self, name):
+        """[ms] wall time each of the last (up to 300) scans or images of ``name`` took (decoding and
+        the memory's update; not the wait for tf)."""
+        with self.lock:
+            return np.array(self.update_ms[name])
 
     def ages(self, now):
         """{name: [s] since its last scan was taken (inf: none yet)}."""
