@@ -130,15 +130,11 @@ def send(cmd, states, v, w):
     """Publish (v, w) until the monitor answers it; returns the state message."""
     from geometry_msgs.msg import Twist
 
+    from florence_harness.topics import publish_until_answered
+
     msg = Twist()
     msg.linear.x, msg.angular.z = v, w
-    n = len(states)
-    deadline = time.monotonic() + 10.0
-    while len(states) == n:
-        assert time.monotonic() < deadline, "no answer from collision_monitor_node"
-        cmd.publish(msg)
-        time.sleep(0.05)
-    return states[-1]
+    return publish_until_answered(cmd, msg, states, what="answer from collision_monitor_node")
 
 
 def kinect_diagnostics(rospy):

@@ -41,7 +41,6 @@ def sim(ros_master, rospy_node, tf_buffer):
     tf_buffer.clear()
     proc = launch_stack(ros_master, (1.6, 2.1, math.pi / 2), real_time_factor=RTF, seed=3, lost_timeout=LOST_TIMEOUT)
     session = EnablersSession()
-    _forget_when_carried(session)
     try:
         session.wait_ready()
         rospy_node.wait_for_service("/user_tracker_ni_node/Start", 60)
@@ -52,26 +51,6 @@ def sim(ros_master, rospy_node, tf_buffer):
         if not had_sim_time and master.hasParam("/use_sim_time"):
             master.deleteParam("/use_sim_time")
         tf_buffer.clear()
-
-
-def _forget_when_carried(session):
-    """Each scene carries the robot (florence_sim's ~set_robot_pose: odometry keeps counting, the world
-    around it changes): then the collision monitor forgets what it remembers (~forget), as the tracker
-    forgets its tracks (~Stop). Its depth memory keeps what it saw near and can no longer see for as
-    long as it stays near: after a carry, a person approached in the last test stood before the robot
-    for good, in odom."""
-    import rospy
-    from std_srvs.srv import Trigger
-
-    carry = session.scene
-
-    def scene(robot, **people):
-        t = carry(robot, **people)
-        answer = rospy.ServiceProxy("/collision_monitor/forget", Trigger)()
-        assert answer.success, answer.message
-        return t
-
-    session.scene = scene
 
 
 def detail(session, proc):

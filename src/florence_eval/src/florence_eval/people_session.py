@@ -24,6 +24,8 @@ from florence_common.processes import wait_for
 from florence_common_ros.convert import to_xyyaw
 from florence_eval import people_metrics
 
+FORGET = "/collision_monitor/forget"  # std_srvs/Trigger: the monitor drops what it remembers
+
 
 def launch_stack(master, start, real_time_factor=1.0, seed=1, people=None, amcl=True, tracker_args=()):
     """Start florence_sim (``people``: a people file, None: nobody), map_server with the apartment's
@@ -201,14 +203,26 @@ class PeopleSession:
             self._call("remove_person", RemovePerson, pid)
 
     def set_robot(self, x, y, yaw, initialpose=True):
-        """Carry the robot to (x, y, yaw) in the map; with ``initialpose``, tell amcl (/initialpose)."""
+        """Carry the robot to (x, y, yaw) in the map; with ``initialpose``, tell amcl (/initialpose).
+        A collision monitor running forgets what it remembers (~forget): odometry did not see the
+        carry, and what its depth memory kept near the robot (a person approached last, above and
+        below the Kinect's view) would stand before it for good."""
         from geometry_msgs.msg import PoseWithCovarianceStamped
+        from std_srvs.srv import Trigger
 
         from florence_common_ros.convert import pose_msg
         from florence_sim.srv import SetRobotPose
 
         self.stop()
         self._call("set_robot_pose", SetRobotPose, x, y, yaw)
+        try:
+            rosgraph.Master("/people_session").lookupService(FORGET)
+        except rosgraph.MasterError:
+            pass  # no collision monitor in this stack
+        else:
+            answer = rospy.ServiceProxy(FORGET, Trigger)()
+            if not answer.success:
+                raise RuntimeError(f"{FORGET}: {answer.message}")
         if initialpose:
             msg = PoseWithCovarianceStamped()
             msg.header.frame_id = "map"
