@@ -98,8 +98,8 @@ class Robot:
         self.y += self.v * math.sin(self.yaw) * dt
 
 
-def align(robot, user, front_free=None, back_free=None, t_max=40.0):
-    a, t, dt, nearest = Align(AlignParams(), 0.0), 0.0, 0.05, math.inf
+def align(robot, user, front_free=None, back_free=None, t_max=40.0, p=None):
+    a, t, dt, nearest = Align(p or AlignParams(), 0.0), 0.0, 0.05, math.inf
     while t < t_max:
         free = math.inf if front_free is None else front_free(robot)
         back = math.inf if back_free is None else back_free(robot)
@@ -149,6 +149,22 @@ def test_align_stops_short_of_an_obstacle_ahead():
     step, nearest = align(robot, user, front_free=front_free)
     assert not step.ok and "blocked ahead" in step.why
     assert 0.73 < nearest < 0.77
+
+
+def test_align_blocked_by_the_users_knees_near_safe_distance_is_as_near_as_it_goes():
+    """A seated user's knees 0.34 m in front of their centre: the laser stops the robot about 0.63 m
+    from them (front_margin 0.05 m), beyond accept_distance (0.1 m) but within blocked_accept (0.15 m)
+    of safe_distance: success, saying it was blocked. With blocked_accept 0 the same stop fails."""
+    user = (0.0, 0.0)
+
+    def front_free(r):
+        return math.hypot(r.x, r.y) - 0.24 - 0.34  # [m] beyond the nose (0.24 m) to the knees
+
+    for accept, ok in ((0.15, True), (0.0, False)):
+        robot = Robot(1.0, 0.0, math.pi)
+        step, nearest = align(robot, user, front_free=front_free, p=AlignParams(blocked_accept=accept))
+        assert step.ok is ok and "blocked ahead" in step.why, step.why
+        assert 0.61 < nearest < 0.65
 
 
 def test_align_backs_up_only_as_far_as_the_map_allows():

@@ -83,6 +83,8 @@ PARAMS = ParamTable(
           gt=0),
     Param("accept_angle", float, math.degrees(_L.accept_angle), "... and facing the user within this",
           unit="deg", gt=0),
+    Param("blocked_accept", float, _L.blocked_accept, "success too: the straight move blocked ahead (a seated "
+          "user's knees, a table) at most this beyond safe_distance", unit="m", ge=0),
     Param("nose", float, 0.24, "the robot's front edge from its centre (the footprint's tip)", unit="m", gt=0),
     Param("half_width", float, 0.19, "half the robot's width, plus a margin (the corridor checked ahead)",
           unit="m", gt=0),
@@ -107,7 +109,8 @@ class ApproachMeMapNode:
         self.params = ApproachParams(p.safe_distance, math.radians(p.candidate_step), math.radians(p.preferred_offset),
                                      min_clearance=p.min_clearance)
         self.align_params = AlignParams(p.safe_distance, p.align_speed, front_margin=p.front_margin,
-                                        accept_distance=p.accept_distance, accept_angle=math.radians(p.accept_angle))
+                                        accept_distance=p.accept_distance, accept_angle=math.radians(p.accept_angle),
+                                        blocked_accept=p.blocked_accept)
         self.lock = threading.Lock()
         self.grid = None
         self.request = None  # (x, y) of the newest detection not yet taken

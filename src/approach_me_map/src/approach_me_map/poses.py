@@ -143,6 +143,7 @@ class AlignParams:
     lead: float = 0.3  # [s] the braking looks this far ahead at the measured speed (late commands)
     accept_distance: float = 0.1  # [m] success: |distance - safe_distance| within this ...
     accept_angle: float = math.radians(10.0)  # [rad] ... and facing the user within this
+    blocked_accept: float = 0.15  # [m] success too: blocked ahead (the user's knees) at most this beyond safe_distance
     timeout: float = 25.0  # [s]
 
 
@@ -216,7 +217,11 @@ class Align:
 
     def _finish(self, distance, error, why=""):
         p = self.p
-        ok = not why and abs(distance - p.safe_distance) <= p.accept_distance and abs(error) <= p.accept_angle
+        near = abs(distance - p.safe_distance) <= p.accept_distance
+        # a seated user's knees reach 0.3 m toward the robot: at 0.5 m the nose would be on them; the
+        # laser stops it short, as near as it goes, and that is where a polite robot stands
+        as_near = self.blocked == "blocked ahead" and 0.0 < distance - p.safe_distance <= p.blocked_accept
+        ok = not why and (near or as_near) and abs(error) <= p.accept_angle
         text = why or (f"{distance:.2f} m from the user, facing them within {math.degrees(abs(error)):.0f} deg"
                        + (f" ({self.blocked})" if self.blocked else ""))
         return AlignStep(done=True, ok=ok, why=text)
