@@ -250,6 +250,8 @@ class PeopleAdapter:
             return f"{near or 'a person'} is nearer than min_person_distance on every way on"
         if reason is not None:
             return f"{near}: {reason}" if near else ""
+        if not near and not waiting:
+            return ""  # blocked_plan_reason's answer whatever the maps say: no plan on them needed
         costmap = self.node.planner_costmap
         with costmap.lock:
             free = costmap.layered.map_only()
