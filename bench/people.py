@@ -200,6 +200,7 @@ def processing_times(frames=60, repeat=3):
     from user_tracker_ni.pipeline import Pipeline
 
     from florence_common import pose
+    from florence_common.camera import Camera
     from florence_common.maps import map_file
     from florence_eval import people_offline
     from user_tracker_ni import depth_people
@@ -210,7 +211,7 @@ def processing_times(frames=60, repeat=3):
         config = SimConfig(camera=CameraConfig(width=w, height=h),
                            laser=LaserConfig(min_ang=-2.0862, max_ang=2.0862), seed=1)
         sim = Simulator.from_files(world, people, config=config, start=(0.6, 2.4, 0.0))
-        camera = depth_people.Camera(sim.camera.K, w, h)
+        camera = Camera.from_k(sim.camera.K, w, h)
         camera_pose = sim.robot.pose("camera_depth_optical_frame")  # in base_footprint
         shots, scans = [], []
         for _ in range(frames):

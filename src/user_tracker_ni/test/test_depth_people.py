@@ -3,14 +3,15 @@ side by side, colour signatures, bad input."""
 
 import numpy as np
 import pytest
-from user_tracker_ni.depth_people import Camera, DepthParams, detect
+from user_tracker_ni.depth_people import DepthParams, detect
 
+from florence_common.camera import Camera
 from florence_harness import kinect_scenes as scenes
 from user_tracker_ni import reid
 
 pytestmark = pytest.mark.unit
 
-CAMERA = Camera(scenes.K, scenes.WIDTH, scenes.HEIGHT)
+CAMERA = Camera.from_k(scenes.K, scenes.WIDTH, scenes.HEIGHT)
 P = DepthParams().validate()
 RED, BLUE = (200, 30, 30), (30, 60, 200)
 
@@ -86,7 +87,7 @@ def test_bad_input():
     with pytest.raises(ValueError, match="does not match"):
         detect(np.zeros((10, 10), np.float32), CAMERA, scenes.CAMERA_POSE, P)
     with pytest.raises(ValueError, match="intrinsics"):
-        Camera([0.0] * 9, 160, 120)
+        Camera.from_k([0.0] * 9, 160, 120)
 
 
 def test_millimetre_images_work_once_converted():

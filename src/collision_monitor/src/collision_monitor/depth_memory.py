@@ -56,39 +56,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from florence_common.camera import Camera, stride_for
+
 # the verdict on a remembered point (classify)
 OBSERVED, SEEN_THROUGH, HIDDEN, BEHIND, OUTSIDE, BLIND, UNKNOWN = range(7)
 VERDICTS = ("observed", "seen through", "hidden", "behind", "outside", "blind", "unknown")
 KEPT = np.array([False, False, True, True, True, True, True])  # per verdict: not dropped
 _VOXEL_SPAN = 1 << 20  # voxel index range per axis (+-2**19 voxels: +-15 km at 3 cm)
-
-
-@dataclass(frozen=True)
-class Camera:
-    """Pinhole intrinsics of a depth image: focal lengths fx, fy [px], principal point cx, cy [px],
-    size width x height [px]."""
-
-    fx: float
-    fy: float
-    cx: float
-    cy: float
-    width: int
-    height: int
-
-    def __post_init__(self):
-        values = (self.fx, self.fy, self.cx, self.cy)
-        if not (all(math.isfinite(v) for v in values) and self.fx > 0 and self.fy > 0):
-            raise ValueError(f"no usable intrinsics: fx={self.fx}, fy={self.fy}, cx={self.cx}, cy={self.cy}")
-        if not (self.width > 0 and self.height > 0):
-            raise ValueError(f"image size {self.width}x{self.height}")
-
-    @classmethod
-    def from_k(cls, k, width, height):
-        """From a CameraInfo's row-major 3x3 K [fx 0 cx 0 fy cy 0 0 1] and its size."""
-        k = [float(v) for v in k]
-        if len(k) != 9:
-            raise ValueError(f"K must have 9 elements, got {len(k)}")
-        return cls(k[0], k[4], k[2], k[5], int(width), int(height))
 
 
 @dataclass(frozen=True)
@@ -101,12 +75,6 @@ class DepthFrame:
     camera: Camera
     pose: np.ndarray
     stamp: float
-
-
-def stride_for(width, target_width):
-    """Every how many rows and columns fresh points are taken so that about ``target_width``
-    columns remain."""
-    return max(1, round(width / target_width))
 
 
 def voxel_keys(points, resolution, dims=3):
@@ -203,15 +171,6 @@ class DepthMemory:
         self.stamp = -math.inf  # [s] of the last frame
         self.counts = np.zeros(len(VERDICTS), dtype=int)  # verdicts of the last frame
         self.cleared = 0  # clear() calls: an update running meanwhile keeps only its fresh points
-        self._rays = {}  # (camera, stride) -> unit-depth rays [M, 3] of the subsampled pixels
-
-    def _rays_for(self, camera, stride):
-        key = (camera, stride)
-        if key not in self._rays:
-            v, u = np.mgrid[0:camera.height:stride, 0:camera.width:stride]
-            self._rays = {key: np.column_stack([((u - camera.cx) / camera.fx).ravel(),
-                                                ((v - camera.cy) / camera.fy).ravel(), np.ones(u.size)])}
-        return self._rays[key]
 
     def fresh_points(self, frame):
         """The frame's obstacle points [N, 3] in the fixed frame (before thinning)."""
@@ -229,7 +188,7 @@ class DepthMemory:
         with np.errstate(invalid="ignore"):
             ok = np.isfinite(z) & (z > self.self_range) & (z > 0) & (z <= self.max_range)
         m = np.asarray(frame.pose, dtype=float)
-        rays = self._rays_for(cam, stride)[ok]
+        rays = cam.rays(stride).reshape(-1, 3)[ok]
         local = rays * z[ok, None]
         pts = local @ m[:3, :3].T + m[:3, 3]
         band = (pts[:, 2] >= self.min_height) & (pts[:, 2] <= self.max_height)

@@ -57,15 +57,16 @@ def run(scenario, seed=1, camera=None, params=None, world=None, use_map=True, wa
     ids it knows are kept, as in the ROS runs, where one node plays every scenario)."""
     from florence_sim.sensors import CameraConfig
     from florence_sim.sim import TILT_JOINT, SimConfig, Simulator
-    from user_tracker_ni.depth_people import Camera
     from user_tracker_ni.pipeline import Pipeline
+
+    from florence_common.camera import Camera
 
     config = SimConfig(camera=camera or CameraConfig(), seed=seed)
     sim = Simulator.from_files(world or map_file("apartment", "apartment.world.yaml"), None, config=config,
                                start=tuple(scenario.robot))
     for pid, spec in scenario.people.items():
         sim.add_person(_person(spec, pid))
-    cam = Camera(sim.camera.K, config.camera.width, config.camera.height)
+    cam = Camera.from_k(sim.camera.K, config.camera.width, config.camera.height)
     laser = sim.laser
     if pipeline is None:
         pipeline = Pipeline(params)

@@ -50,6 +50,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
+from florence_common.camera import stride_for
 from user_tracker_ni import reid
 
 CENTRE_SHIFT = 0.375  # the body's centre beyond the mean of its visible points, in widths
@@ -110,33 +111,10 @@ class PersonDetection:
     signature: np.ndarray | None = None
 
 
-class Camera:
-    """Pinhole intrinsics of the depth image (fx, fy, cx, cy [px]) and its size."""
-
-    def __init__(self, K, width, height):
-        fx, _, cx, _, fy, cy = (float(v) for v in list(K)[:6])
-        if not (fx > 0 and fy > 0 and width > 0 and height > 0):
-            raise ValueError(f"camera_info has no usable intrinsics: K={list(K)}, size {width}x{height}")
-        self.fx, self.fy, self.cx, self.cy = fx, fy, cx, cy
-        self.width, self.height = int(width), int(height)
-        self._rays = {}
-
-    def rays(self, stride):
-        """Unit-depth rays [h, w, 3] of the pixels kept at ``stride`` (optical frame), cached."""
-        if stride not in self._rays:
-            v, u = np.mgrid[0:self.height:stride, 0:self.width:stride].astype(np.float32)
-            self._rays[stride] = np.stack([(u - self.cx) / self.fx, (v - self.cy) / self.fy, np.ones_like(u)], -1)
-        return self._rays[stride]
-
-
-def stride_for(width, params):
-    return max(1, round(width / params.target_width))
-
-
 def detect(depth, camera, camera_pose, params, rgb=None):
     """(people, rejected) of one depth image.
 
-    depth: [H, W] float [m], NaN (or 0) for no return; camera: :class:`Camera`; camera_pose:
+    depth: [H, W] float [m], NaN (or 0) for no return; camera: :class:`florence_common.camera.Camera`; camera_pose:
     4x4 pose of the optical frame in the base frame (z up from the floor); rgb: optional
     [H', W', 3] uint8 colour image registered to the depth image (resized if its size differs).
     rejected: Counter of the reasons clusters were not people."""
@@ -145,9 +123,9 @@ def detect(depth, camera, camera_pose, params, rgb=None):
     if depth.shape != (camera.height, camera.width):
         raise ValueError(f"depth image {depth.shape[1]}x{depth.shape[0]} does not match its camera_info "
                          f"{camera.width}x{camera.height}")
-    stride = stride_for(camera.width, p)
+    stride = stride_for(camera.width, p.target_width)
     d = depth[::stride, ::stride].astype(np.float32)
-    rays = camera.rays(stride)
+    rays = camera.rays(stride, np.float32)
     with np.errstate(invalid="ignore"):
         valid = np.isfinite(d) & (d > p.min_range) & (d < p.max_range)
     R, t = np.asarray(camera_pose)[:3, :3], np.asarray(camera_pose)[:3, 3]
@@ -238,7 +216,7 @@ def in_clear_view(depth, camera, camera_pose, points, params, height=1.1, margin
     keeps half a metre inside the far limit, where the detector is sure to see a person).
     ``any_height``: in front of the camera whatever the height (a person too near for the image
     to show the upper body, who will show it on stepping back), judged at the image's nearest row.
-    depth: [H, W] [m] (NaN for no return); camera: :class:`Camera`; camera_pose: 4x4 pose of the
+    depth: [H, W] [m] (NaN for no return); camera: :class:`florence_common.camera.Camera`; camera_pose: 4x4 pose of the
     optical frame in the base frame."""
     pts = np.asarray(points, float).reshape(-1, 2)
     if len(pts) == 0:

@@ -44,11 +44,11 @@ from nav_msgs.msg import OccupancyGrid
 from sensor_msgs.msg import CameraInfo, Image, LaserScan
 from visualization_msgs.msg import Marker, MarkerArray
 
+from florence_common.camera import Camera
 from florence_common_ros.convert import depth_image_metres, image_to_array, to_xyyaw, transform_stamped
 from florence_common_ros.diagnostics import ERROR, OK, WARN, Diagnostics
 from florence_common_ros.node import read_params, run
 from florence_common_ros.transforms import lookup_matrix
-from user_tracker_ni import depth_people
 from user_tracker_ni.msg import TrackedUsers
 from user_tracker_ni.params import PARAMS, split
 from user_tracker_ni.pipeline import Pipeline
@@ -75,7 +75,7 @@ class UserTrackerNode:
         self.tracker = self.pipeline.tracker
         self.tracking = bool(v["start_tracking"])
         self.map_frame_of_grid = v["map_frame"]
-        self.camera = None  # depth_people.Camera of the latest camera_info
+        self.camera = None  # florence_common.camera.Camera of the latest camera_info
         self.camera_key = None
         self.colour = None  # (stamp [s], RGB array) of the latest colour image
         self.last_depth = None  # wall time of the last depth frame processed
@@ -137,7 +137,7 @@ class UserTrackerNode:
         if key == self.camera_key:
             return
         try:
-            self.camera = depth_people.Camera(msg.K, msg.width, msg.height)
+            self.camera = Camera.from_k(msg.K, msg.width, msg.height)
             self.camera_key = key
         except ValueError as exc:
             self._warn("camera_info", "camera_info ignored: %s", exc)

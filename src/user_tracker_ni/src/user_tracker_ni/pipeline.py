@@ -3,7 +3,7 @@ wired together once, for the node and for offline evaluations alike.
 
 The caller gives each reading with its time and the poses it needs (4x4, from tf on the robot):
 
-- a depth frame: the image [m], its :class:`depth_people.Camera`, the optical frame's pose in the
+- a depth frame: the image [m], its :class:`florence_common.camera.Camera`, the optical frame's pose in the
   base frame, the base's pose in the fixed frame, and optionally the registered colour image;
 - a scan: its ranges and geometry and the laser's pose in the fixed frame (the upside-down
   mounting is in that pose).
