@@ -334,3 +334,47 @@ def test_bad_settings_and_cameras():
     f = frame([WALL])
     with pytest.raises(ValueError, match="160x120 camera"):
         DepthMemory().update(DepthFrame(f.depth[:, :100], f.camera, f.pose, 0.0))
+
+
+# --- blind points held up by floor-level returns (support_radius) ---------------------------------
+SEAT_LEGS = np.array([[1.02, -0.19], [1.02, 0.19], [1.40, -0.19], [1.40, 0.19]])  # the laser's view of its legs
+TABLE = (1.0, -0.8, 0.70, 2.6, 0.8, 0.75)  # a table top 1.6 m wide; its legs at the corners, 0.8 m off the line
+TABLE_LEGS = np.array([[1.02, -0.78], [1.02, 0.78], [2.58, -0.78], [2.58, 0.78]])
+
+
+def approach(m, boxes, support, to=0.55):
+    for k, x in enumerate(np.arange(0.0, to + 0.001, 0.05)):
+        m.update(frame(boxes, x=x, stamp=0.1 * k), support)
+
+
+def test_a_blind_seat_held_by_its_legs_stays():
+    m = DepthMemory(support_radius=0.35)
+    approach(m, [SEAT, WALL], SEAT_LEGS)
+    for k in range(20):  # standing before it, its legs in the laser's view
+        m.update(frame([SEAT, WALL], x=0.55, stamp=2.0 + k), SEAT_LEGS)
+    assert nearest_ahead(m, 0.55) == pytest.approx(1.0, abs=0.03)
+
+
+def test_a_blind_table_edge_far_from_its_legs_stays_even_with_nothing_on_the_floor_near():
+    m = DepthMemory(support_radius=0.35)
+    approach(m, [TABLE, WALL], TABLE_LEGS, to=0.5)
+    m.update(frame([TABLE, WALL], x=0.5, stamp=5.0), np.zeros((0, 2)))  # never held: kept while blind
+    assert nearest_ahead(m, 0.5) == pytest.approx(1.0, abs=0.05)
+
+
+def test_a_seated_person_who_gets_up_and_leaves_is_released_when_the_laser_sees_their_legs_gone():
+    """What the camera kept of a person it came near (above and below its view) stands before the
+    robot while blind; once the laser sees nothing where their legs were, it goes (make demo: after
+    gotoUser follow_me could not set off after the user)."""
+    torso = (1.0, -0.2, 0.45, 1.35, 0.2, 1.0)  # seated: the lap and the torso in the band
+    legs = np.array([[1.02, -0.1], [1.02, 0.1]])
+    for rule, gone in ((0.35, True), (0.0, False)):
+        m = DepthMemory(memory=1.5, support_radius=rule)
+        approach(m, [torso, WALL], legs)
+        m.update(frame([torso, WALL], x=0.55, stamp=2.0), legs)
+        assert nearest_ahead(m, 0.55) < 1.1 and m.counts[BLIND] > 0
+        # she walks away: the camera still has no depth where she was (too near); the laser sees her legs
+        # gone. What was seen from afar lasts memory (1.5 s); what was seen near is blind: kept while there
+        m.update(frame([WALL], x=0.55, stamp=2.1), np.zeros((0, 2)))
+        m.update(frame([WALL], x=0.55, stamp=3.8), np.zeros((0, 2)))
+        assert (nearest_ahead(m, 0.55) > 2.0) is gone, (rule, nearest_ahead(m, 0.55))

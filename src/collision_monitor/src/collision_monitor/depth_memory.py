@@ -155,7 +155,7 @@ class DepthMemory:
     used for fresh points; ``resolution`` [m]: voxel edge of the thinning."""
 
     def __init__(self, memory=3.0, min_height=0.05, max_height=1.0, max_range=3.0, blind_range=0.7,
-                 self_range=0.0, margin=0.1, target_width=160, resolution=0.03):
+                 self_range=0.0, margin=0.1, target_width=160, resolution=0.03, support_radius=0.0):
         if not (memory >= 0 and self_range >= 0 and margin >= 0 and blind_range >= 0):
             raise ValueError("memory, self_range, margin and blind_range must be >= 0")
         if not (min_height <= max_height and max_range > 0 and target_width >= 1 and resolution > 0):
@@ -164,7 +164,9 @@ class DepthMemory:
         self.min_height, self.max_height = float(min_height), float(max_height)
         self.max_range, self.self_range = float(max_range), float(self_range)
         self.target_width, self.resolution = int(target_width), float(resolution)
+        self.support_radius = float(support_radius)
         self.points = np.zeros((0, 3))
+        self.held = np.zeros(0, dtype=bool)  # a floor-level return was within support_radius when last seen
         self.seen_at = np.zeros(0)  # [s] when each point was last seen
         self.seen_from = np.zeros(0)  # [m] from how far (horizontally) each point was last seen
         self.columns = np.zeros((0, 3))  # one of the points per column of resolution square
@@ -194,33 +196,53 @@ class DepthMemory:
         band = (pts[:, 2] >= self.min_height) & (pts[:, 2] <= self.max_height)
         return pts[band], np.hypot(local[band, 0], local[band, 2])
 
-    def update(self, frame):
-        """Take a frame; returns the number of points remembered from before."""
+    def _near_support(self, points, support):
+        """Which ``points`` [N, 3] have a floor-level return of ``support`` [K, 2] within support_radius."""
+        if support is None or not len(support) or not len(points) or self.support_radius <= 0.0:
+            return np.zeros(len(points), dtype=bool)
+        from scipy.spatial import cKDTree
+
+        tree = cKDTree(np.asarray(support, dtype=float)[:, :2])
+        d, _ = tree.query(points[:, :2], distance_upper_bound=self.support_radius)
+        return np.isfinite(d)
+
+    def update(self, frame, support=None):
+        """Take a frame; returns the number of points remembered from before. ``support`` [K, 2]:
+        floor-level returns (the laser's points, x and y in the fixed frame) or None. With
+        ``support_radius`` > 0, a BLIND point that had such a return within support_radius when it
+        was last seen and has none now is dropped: what held it up left (a person who stood up and
+        walked away, above and below the view); a chair's legs stay, and a table top's edge far
+        from its legs was never held."""
         cleared = self.cleared
-        old_points, old_seen_at, old_from = self.points, self.seen_at, self.seen_from
+        old_points, old_seen_at, old_from, old_held = self.points, self.seen_at, self.seen_from, self.held
         fresh, fresh_from = self._fresh(frame)
         verdict = classify(old_points, frame, self.blind_range, self.margin, old_from)
+        if support is not None and self.support_radius > 0.0:
+            verdict[(verdict == BLIND) & old_held & ~self._near_support(old_points, support)] = SEEN_THROUGH
         self.counts = np.bincount(verdict, minlength=len(VERDICTS))
         stamp = float(frame.stamp)
         seen_at = np.where(verdict == BLIND, stamp, old_seen_at)  # blind in front: kept while it is there
         keep = KEPT[verdict] & (stamp - seen_at <= self.memory)
+        fresh_held = self._near_support(fresh, support)
         kept = self._store(np.vstack([fresh, old_points[keep]]),
                            np.concatenate([np.full(len(fresh), stamp), seen_at[keep]]),
-                           np.concatenate([fresh_from, old_from[keep]]), len(fresh))
+                           np.concatenate([fresh_from, old_from[keep]]), len(fresh),
+                           np.concatenate([fresh_held, old_held[keep]]))
         if self.cleared != cleared:  # cleared by another thread meanwhile: only this frame's points
-            kept = self._store(fresh, np.full(len(fresh), stamp), fresh_from, len(fresh))
+            kept = self._store(fresh, np.full(len(fresh), stamp), fresh_from, len(fresh), fresh_held)
         self.stamp = stamp
         return kept
 
-    def _store(self, points, seen_at, seen_from, fresh):
+    def _store(self, points, seen_at, seen_from, fresh, held):
         """Keep one of ``points`` (the first ``fresh`` of them this frame's) per voxel, the first;
         returns how many of the kept ones are not fresh."""
         _, first = np.unique(voxel_keys(points, self.resolution), return_index=True)
         first.sort()
-        points, seen_at, seen_from = points[first], seen_at[first], seen_from[first]
+        points, seen_at, seen_from, held = points[first], seen_at[first], seen_from[first], held[first]
         _, column = np.unique(voxel_keys(points, self.resolution, dims=2), return_index=True)
         # replaced whole, each in one assignment: a reader in another thread sees one frame's arrays
-        self.points, self.seen_at, self.seen_from, self.columns = points, seen_at, seen_from, points[column]
+        self.points, self.seen_at, self.seen_from, self.held = points, seen_at, seen_from, held
+        self.columns = points[column]
         return int(np.count_nonzero(first >= fresh))
 
     def clear(self):
@@ -228,6 +250,7 @@ class DepthMemory:
         its fresh points)."""
         self.cleared += 1
         self.points, self.seen_at, self.seen_from = np.zeros((0, 3)), np.zeros(0), np.zeros(0)
+        self.held = np.zeros(0, dtype=bool)
         self.columns = np.zeros((0, 3))
 
     def age(self, now):

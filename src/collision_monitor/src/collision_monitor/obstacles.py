@@ -61,9 +61,13 @@ SOURCE = ParamTable(
           ge=1),
     Param("resolution", float, 0.03, "depth: one point is kept per cube of this edge; commands are judged against "
           "one per column of this square", unit="m", gt=0),
+    Param("support_radius", float, 0.0, "depth: a blind point (kept while it is there) that had a return of the "
+          "scan sources (the laser, at floor level) this near when last seen and has none now is dropped: what "
+          "held it up left (a person who got up and walked away); a chair's legs stay (0: off)", unit="m", ge=0),
     prefix="",
 )
-DEPTH_ONLY = ("camera_info", "min_height", "max_height", "max_range", "blind_range", "target_width", "resolution")
+DEPTH_ONLY = ("camera_info", "min_height", "max_height", "max_range", "blind_range", "target_width", "resolution",
+              "support_radius")
 
 
 def parse_sources(raw):
@@ -107,7 +111,8 @@ def make_memory(source):
     """The memory for a parsed source: ObstacleMemory for a scan, DepthMemory for a depth image."""
     if source.type == DEPTH:
         return DepthMemory(source.memory, source.min_height, source.max_height, source.max_range, source.blind_range,
-                           source.self_range, target_width=source.target_width, resolution=source.resolution)
+                           source.self_range, target_width=source.target_width, resolution=source.resolution,
+                           support_radius=source.support_radius)
     return ObstacleMemory(source.memory, source.self_range)
 
 

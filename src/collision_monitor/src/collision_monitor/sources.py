@@ -22,7 +22,7 @@ import rospy
 from sensor_msgs.msg import CameraInfo, Image, LaserScan
 
 from collision_monitor.depth_memory import Camera, DepthFrame
-from collision_monitor.obstacles import DEPTH, Scan, camera_info_topic, make_memory
+from collision_monitor.obstacles import DEPTH, SCAN, Scan, camera_info_topic, make_memory
 from florence_common_ros.convert import depth_image_metres
 from florence_common_ros.throttle import KindThrottle
 from florence_common_ros.transforms import lookup_matrix
@@ -141,9 +141,16 @@ class ScanSources:
         start += time.perf_counter() - decoded  # the wait for tf is not work
         # outside the lock (only this subscriber's thread updates this memory; it replaces its
         # points in one assignment): judging a command does not wait for a frame's few ms
-        self.memories[name].update(DepthFrame(depth, camera, pose, msg.header.stamp.to_sec()))
+        self.memories[name].update(DepthFrame(depth, camera, pose, msg.header.stamp.to_sec()), self._floor_points())
         self._taken(name, start)
         return None
+
+    def _floor_points(self):
+        """The scan sources' points (x, y) [K, 2] in the fixed frame (the laser's, at floor level: what
+        holds up what a depth camera keeps blind), or None without a scan source."""
+        with self.lock:
+            parts = [m.points[:, :2] for name, m in self.memories.items() if self.specs[name].type == SCAN]
+        return np.vstack(parts) if parts else None
 
     def points(self):
         """(every source's obstacle points [N, 3] in the fixed frame, each point's padding [N] [m])."""
