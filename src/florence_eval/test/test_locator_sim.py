@@ -63,8 +63,9 @@ def hotspot(session, room):
     return spot.x, spot.y, spot.phi
 
 
-def dump(procs):
-    return "\n".join(f"\n----- {p.name} (tail) -----\n{p.output(5000)}" for p in procs[-2:])
+def dump(procs, last=2):
+    """The output's tail of the ``last`` processes launched (the navigation stack is the first)."""
+    return "\n".join(f"\n----- {p.name} (tail) -----\n{p.output(5000)}" for p in procs[-last:])
 
 
 def goto_user_and_judge(session, procs, room):
@@ -196,5 +197,6 @@ def test_manual_override_stops_the_robot_within_a_second_and_teleop_drives_it(st
     session.set_override(False)
     time.sleep(0.5)
     assert session.call("gotoRoom", "kitchen").success
-    assert session.wait_status({"SUCCEEDED", "ABORTED"}, 150.0).status == "SUCCEEDED"
+    done = session.wait_status({"SUCCEEDED", "ABORTED"}, 150.0)
+    assert done.status == "SUCCEEDED", f"after the override: {done}{dump(procs, last=len(procs))}"
     assert session.collisions == 0
