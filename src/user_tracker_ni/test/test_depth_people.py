@@ -1,10 +1,13 @@
 """The depth detector on synthetic images: standing and sitting people, walls, clutter, two people
 side by side, colour signatures, bad input."""
 
+import math
+
 import numpy as np
 import pytest
 from user_tracker_ni.depth_people import DepthParams, detect
 
+from florence_common import angles
 from florence_common.camera import Camera
 from florence_harness import kinect_scenes as scenes
 from user_tracker_ni import reid
@@ -36,6 +39,25 @@ def test_a_sitting_person_is_found_and_seen_sitting():
     assert len(people) == 1
     assert (people[0].x, people[0].y) == pytest.approx((2.5, -0.2), abs=0.08)
     assert people[0].posture == "sitting"
+
+
+@pytest.mark.parametrize("distance", [1.8, 2.6, 3.4])
+@pytest.mark.parametrize("facing_deg", [180, 135, 90, 45, 0, -60, -120])
+def test_a_sitting_person_s_facing_is_told_by_their_shins_in_front_of_the_torso(distance, facing_deg):
+    """From the front, the side and behind: the shins 0.15 m in front of the torso (florence_sim's seated
+    body; an adult's knees stand farther out) give the facing within 35 deg."""
+    facing = math.radians(facing_deg)
+    people, _ = run(scenes.sitting(distance, 0.2, BLUE, facing=facing))
+    assert len(people) == 1 and people[0].posture == ("unknown" if distance < 2.0 else "sitting")  # head cut
+    assert people[0].facing is not None
+    assert abs(angles.diff(people[0].facing, facing)) < math.radians(35), math.degrees(people[0].facing)
+
+
+def test_no_facing_without_the_shins_in_front_or_for_a_standing_person():
+    (tucked,), _ = run(scenes.sitting(2.5, 0.0, BLUE, reach=0.0))  # legs under the torso (or hidden by a seat)
+    assert tucked.posture == "sitting" and tucked.facing is None
+    (standing,), _ = run(scenes.standing(3.5, 0.0, RED))
+    assert standing.posture == "standing" and standing.facing is None
 
 
 def test_two_people_side_by_side_are_two():

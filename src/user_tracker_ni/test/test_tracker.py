@@ -329,3 +329,35 @@ def test_a_person_who_turns_where_the_track_went_on_keeps_the_id():
         t += 1 / RATE
     (back,) = tracker.published()
     assert back.pid == red.pid and back.ni_id != red.ni_id
+
+
+def test_a_seated_person_faces_where_the_kinect_said_and_a_walking_one_the_way_they_walk():
+    rng = np.random.default_rng(4)
+    tracker, p = Tracker(), TrackerParams()
+    facing = math.radians(160)
+    t = 0.0
+    for k in range(int(2 * RATE)):  # seated at (2, 1): the shins say 160 deg give or take 20
+        t = k / RATE
+        det = kinect(2.0, 1.0, RED, rng)
+        tracker.update(t, [Detection(det.x, det.y, KINECT, 0.08, RED, facing=facing + rng.normal(0, 0.35))], KINECT)
+    (track,) = tracker.published()
+    assert abs(math.remainder(track.facing(p) - facing, 2 * math.pi)) < math.radians(15)
+    for k in range(1, int(2 * RATE)):  # gets up and walks off along -y at 0.6 m/s, the Kinect saying nothing of it
+        tracker.update(t + k / RATE, [kinect(2.0, 1.0 - 0.6 * k / RATE, RED, rng)], KINECT)
+    (track,) = tracker.published()
+    assert abs(math.remainder(track.facing(p) + math.pi / 2, 2 * math.pi)) < math.radians(20)
+    assert track.facing_count == 0  # walking cleared what the Kinect said
+
+
+def test_facing_stays_unknown_until_enough_frames_agree():
+    rng = np.random.default_rng(5)
+    tracker, p = Tracker(), TrackerParams()
+    for k in range(int(2 * RATE)):  # frames that disagree (a seat's edge, a table leg taken for shins)
+        det = kinect(2.0, 1.0, RED, rng)
+        tracker.update(k / RATE, [Detection(det.x, det.y, KINECT, 0.08, RED, facing=k * 2.4)], KINECT)
+    (track,) = tracker.published()
+    assert track.facing_count > p.facing_frames and track.facing(p) is None
+    tracker = Tracker()
+    for k in range(int(RATE)):  # nothing said
+        tracker.update(k / RATE, [kinect(2.0, 1.0, RED, rng)], KINECT)
+    assert tracker.published()[0].facing(p) is None

@@ -29,7 +29,7 @@ PARAMS = ParamTable(
     Param("stale_after", float, 0.5, "users no sensor saw for this long are dropped", unit="s", gt=0),
     Param("camera_frame", FRAME, "camera_depth_frame", "the frame distances are measured from"),
 )
-PER_USER = ("user_ids", "user_ids_ni", "positions", "velocities", "last_seen", "sensors")
+PER_USER = ("user_ids", "user_ids_ni", "positions", "velocities", "last_seen", "sensors", "facings")
 
 
 class FilterUserTrackerNode:

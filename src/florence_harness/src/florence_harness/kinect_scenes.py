@@ -32,8 +32,13 @@ def standing(x, y, shirt, height=1.72, build=1.0):
             (x, y, 0.18 * build, legs, height - 0.24, shirt), (x, y, 0.10, height - 0.22, height, SKIN)]
 
 
-def sitting(x, y, shirt):
-    return [(x - 0.15, y + 0.08, 0.06, 0.0, 0.48, TROUSERS), (x - 0.15, y - 0.08, 0.06, 0.0, 0.48, TROUSERS),
+def sitting(x, y, shirt, facing=math.pi, reach=0.15):
+    """Cylinders of a seated person whose lower legs stand ``reach`` [m] in front of the torso, facing
+    ``facing`` [rad] in the base frame (pi: toward the camera)."""
+    c, s = math.cos(facing), math.sin(facing)
+    lx, ly = x + reach * c, y + reach * s
+    return [(lx - 0.08 * s, ly + 0.08 * c, 0.06, 0.0, 0.48, TROUSERS),
+            (lx + 0.08 * s, ly - 0.08 * c, 0.06, 0.0, 0.48, TROUSERS),
             (x, y, 0.17, 0.45, 1.05, shirt), (x, y, 0.10, 1.10, 1.32, SKIN)]
 
 

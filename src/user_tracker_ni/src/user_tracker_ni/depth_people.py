@@ -38,6 +38,13 @@ detector therefore looks for what every person in view shows and furniture does 
    (``truncated`` when the image's top row cuts it), its posture (sitting when its top is seen
    below ``sitting_top``) and a colour signature of its torso (reid.signature) when a
    registered colour image is given.
+5. Which way a seated person faces: a seated body's knees and lower legs stand in front of its
+   torso (0.3-0.5 m for an adult on a chair or a sofa). The mean of the points at the height of
+   the shins (``legs_min``..``legs_max``) within ``facing_reach`` of the torso, less the mean of
+   the upper-body points, points the way the person faces; both means are of near sides seen
+   from one camera, so their offset toward the camera largely cancels. An offset shorter than
+   ``facing_min_offset`` says nothing (a seat or a table hides the legs, or they are tucked
+   under): ``facing`` stays None. A standing person's legs are under the torso: no facing.
 
 :func:`detect` returns the people and, for diagnostics, the number of clusters rejected for
 each reason.
@@ -81,6 +88,10 @@ class DepthParams:
     min_judged: float = 0.3  # share of those pixels that must be judgeable (not occluded, in the image)
     sitting_top: float = 1.45  # [m] a person whose top is seen below this is sitting
     border: int = 1  # [px, decimated] clusters touching the left or right border are not judged
+    legs_min: float = 0.08  # [m] heights of a seated person's shins (the facing cue) ...
+    legs_max: float = 0.42  # [m]
+    facing_reach: float = 0.6  # [m] ... looked for this near the upper body's centre
+    facing_min_offset: float = 0.08  # [m] shins this far in front of the torso tell the facing
 
     def validate(self):
         for name in ("min_range", "max_range", "cell", "min_width", "max_width", "max_depth", "body_reach",
@@ -91,6 +102,10 @@ class DepthParams:
                 and 0 < self.hips_min < self.hips_max <= self.upper_min < self.max_height):
             raise ValueError("need min_range < max_range, min_width < max_width and "
                              "0 < hips_min < hips_max <= upper_min < max_height")
+        if not (0 <= self.legs_min < self.legs_max <= self.hips_max and self.facing_reach > 0
+                and 0 < self.facing_min_offset < self.facing_reach):
+            raise ValueError("need 0 <= legs_min < legs_max <= hips_max, facing_reach > 0 and "
+                             "0 < facing_min_offset < facing_reach")
         if self.target_width < 16 or self.min_points < 3:
             raise ValueError("target_width must be >= 16 and min_points >= 3")
         if not (0 <= self.fill_min < self.fill_max <= self.upper_min and 0 <= self.min_fill <= 1
@@ -109,6 +124,7 @@ class PersonDetection:
     posture: str  # "standing" or "sitting" ("unknown" when truncated)
     points: int
     signature: np.ndarray | None = None
+    facing: float | None = None  # [rad] in the base frame, a seated person's (module docstring, 5); None: unknown
 
 
 def detect(depth, camera, camera_pose, params, rgb=None):
@@ -134,6 +150,7 @@ def detect(depth, camera, camera_pose, params, rgb=None):
     z = pts[:, 2]
     upper = (z >= p.upper_min) & (z <= p.max_height)
     hips = (z >= p.hips_min) & (z <= p.hips_max)
+    shins = (z >= p.legs_min) & (z <= p.legs_max)
     rejected = Counter()
     if np.count_nonzero(upper) < p.min_points:
         return [], rejected
@@ -202,7 +219,9 @@ def detect(depth, camera, camera_pose, params, rgb=None):
             torso &= (z >= band[0]) & (z <= band[1])
             if np.count_nonzero(torso) >= p.min_points:
                 sig = reid.signature(colour[vv[torso], uu[torso]])
-        people.append(PersonDetection(float(centre[0]), float(centre[1]), top, truncated, width, posture, count, sig))
+        facing = None if posture == "standing" else _facing(pts[shins, :2], centroid, centre, p)
+        people.append(PersonDetection(float(centre[0]), float(centre[1]), top, truncated, width, posture, count, sig,
+                                      facing))
     return people, rejected
 
 
@@ -300,6 +319,19 @@ def _roundness(xy):
         return 0.0
     c = np.cov(xy.T.astype(np.float64))
     return float(math.sqrt(max(np.linalg.eigvalsh(c)[0], 0.0)))
+
+
+def _facing(shins, upper_mean, centre, p):
+    """Which way [rad] a seated person faces from the points at shin height [N, 2] (all of the image's),
+    the mean of their upper-body points and their centre (module docstring, 5); None when it cannot
+    be told."""
+    near = shins[np.hypot(shins[:, 0] - centre[0], shins[:, 1] - centre[1]) <= p.facing_reach]
+    if len(near) < p.min_points:
+        return None
+    offset = near.mean(axis=0) - upper_mean
+    if float(np.hypot(*offset)) < p.facing_min_offset:
+        return None
+    return float(math.atan2(offset[1], offset[0]))
 
 
 def _torso_band(top, truncated, p):

@@ -16,7 +16,8 @@ ROS Publishers:
     tracked_users (user_tracker_ni/TrackedUsers): the confirmed users after every depth frame (the
         camera rate); after every scan instead while no depth frame came for
         ~publish_on_scans_after. While stopped: an empty message at the same rate.
-    ~markers (visualization_msgs/MarkerArray): a cylinder and a label "id (ni id)" per user.
+    ~markers (visualization_msgs/MarkerArray): a cylinder and a label "id (ni id)" per user, an arrow the way
+        they face when it is known.
     /tf: user_<user_id> per user, child of ~fixed_frame (with ~publish_tf).
     /diagnostics: input rates, processing time, tracks, why detections were dropped.
 
@@ -264,6 +265,8 @@ class UserTrackerNode:
                 msg.user_ids_ni.append(tr.ni_id)
                 msg.positions.append(Point(x, y, 0.85))
                 msg.velocities.append(Vector3(vx, vy, 0.0))
+                facing = tr.facing(self.tracker.params)
+                msg.facings.append(math.nan if facing is None else facing)
                 seen = max(t for t in (tr.last_kinect, tr.last_laser) if t is not None)
                 msg.last_seen.append(rospy.Time.from_sec(seen))
                 sensors.append((1 if tr.last_kinect is not None and now - tr.last_kinect <= RECENT else 0)
@@ -296,6 +299,17 @@ class UserTrackerNode:
             label.color.r = label.color.g = label.color.b = label.color.a = 1.0
             label.lifetime = rospy.Duration(0.5)
             out.markers += [body, label]
+        for pid, p, facing in zip(msg.user_ids, msg.positions, msg.facings, strict=True):
+            if not math.isfinite(facing):
+                continue
+            arrow = Marker(type=Marker.ARROW, action=Marker.ADD, ns="facing", id=pid)  # 0.5 m at the knees
+            arrow.header.frame_id, arrow.header.stamp = msg.frame_id, msg.stamp
+            tip = Point(p.x + 0.5 * math.cos(facing), p.y + 0.5 * math.sin(facing), 0.5)
+            arrow.points = [Point(p.x, p.y, 0.5), tip]
+            arrow.scale = Vector3(0.05, 0.1, 0.1)
+            arrow.color.r, arrow.color.g, arrow.color.b, arrow.color.a = (*COLOURS[pid % len(COLOURS)], 1.0)
+            arrow.lifetime = rospy.Duration(0.5)
+            out.markers.append(arrow)
         if out.markers:
             self.markers.publish(out)
 

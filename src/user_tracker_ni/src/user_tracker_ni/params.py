@@ -68,6 +68,13 @@ KINECT = ParamTable(
           unit="m", gt=0),
     Param("kinect/border", int, DepthParams.border,
           "clusters touching the image's left or right border within this are not judged", unit="px", ge=0),
+    Param("kinect/legs_min", float, DepthParams.legs_min, "heights of a seated person's shins, the facing cue ...",
+          unit="m", ge=0),
+    Param("kinect/legs_max", float, DepthParams.legs_max, "... (to this height)", unit="m", gt=0),
+    Param("kinect/facing_reach", float, DepthParams.facing_reach, "... looked for this near the upper body's centre",
+          unit="m", gt=0),
+    Param("kinect/facing_min_offset", float, DepthParams.facing_min_offset,
+          "shins this far in front of the torso tell which way a seated person faces", unit="m", gt=0),
 )
 
 LASER = ParamTable(
@@ -133,6 +140,12 @@ TRACKER = ParamTable(
     Param("tracker/reid_threshold", float, TrackerParams.reid_threshold,
           "largest colour-signature distance (Bhattacharyya) of a re-identification", gt=0, le=1),
     Param("tracker/max_tracks", int, TrackerParams.max_tracks, "tentative tracks beyond this are not started", ge=1),
+    Param("tracker/facing_walk_speed", float, TrackerParams.facing_walk_speed,
+          "a user this fast faces the way they walk", unit="m/s", gt=0),
+    Param("tracker/facing_frames", int, TrackerParams.facing_frames,
+          "Kinect frames that told a still user's facing before it is published ...", ge=1),
+    Param("tracker/facing_agreement", float, TrackerParams.facing_agreement,
+          "... and the length of the mean of their unit vectors (1: all agree)", ge=0, le=1),
 )
 
 FREE = ParamTable(

@@ -15,11 +15,13 @@ reading's time (``fixed_in_map``), detections on thin static structure are marke
 (static_map.py); without either, nothing is.
 """
 
+import math
 from collections import Counter
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from florence_common import angles
 from user_tracker_ni import depth_people, free_space, laser_legs
 from user_tracker_ni.tracker import KINECT, LASER, Detection, Tracker
 
@@ -70,7 +72,9 @@ class Pipeline:
         base = np.asarray(base_in_fixed, float)
         xy = np.array([base[:2, :2] @ (p.x, p.y) + base[:2, 3] for p in people]).reshape(-1, 2)
         on = self._on_structure(xy, fixed_in_map)
-        dets = [Detection(float(x), float(y), KINECT, KINECT_STD, p.signature, on_structure=bool(o))
+        yaw = math.atan2(base[1, 0], base[0, 0])
+        dets = [Detection(float(x), float(y), KINECT, KINECT_STD, p.signature, on_structure=bool(o),
+                          facing=None if p.facing is None else angles.wrap(p.facing + yaw))
                 for (x, y), p, o in zip(xy, people, on, strict=True)]
         self.tracker.update(t, dets, KINECT)
         self.counts[KINECT] += len(dets)

@@ -49,9 +49,17 @@ published; it is published only once it has an id. When the Kinect first sees
 the colours of a track with a provisional id, the track is re-identified: it takes the stored
 id its signature matches (one no other live track holds), and the provisional id, which never
 had a signature, is forgotten; with no match the provisional id becomes its own.
+
+Facing (:attr:`Track.facing`): a person walking at ``facing_walk_speed`` or faster faces the way
+they walk; a still one faces the way the Kinect's detections said (depth_people: a seated
+person's shins in front of the torso), as the mean of their unit vectors, once
+``facing_frames`` frames said it and they agree (the mean's length at least
+``facing_agreement``); walking clears it (who sits down again may face elsewhere). Otherwise
+unknown (None).
 """
 
 import itertools
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -74,6 +82,7 @@ class Detection:
     signature: np.ndarray | None = None  # colour signature (reid.signature), Kinect only
     free: bool | None = None  # laser only: in floor the laser saw free lately (free_space.py)
     on_structure: bool = False  # on thin static structure of the robot's map (static_map.py)
+    facing: float | None = None  # [rad] which way the person faces, in the fixed frame (Kinect, seated people)
 
 
 @dataclass(frozen=True)
@@ -100,6 +109,9 @@ class TrackerParams:
     signature_clearance: float = 0.8  # [m] colours are learnt only with no other track this near
     reid_threshold: float = 0.4  # largest Bhattacharyya distance of a re-identification
     max_tracks: int = 30  # tentative tracks beyond this are not started (clutter storms)
+    facing_walk_speed: float = 0.3  # [m/s] a person this fast faces the way they walk
+    facing_frames: int = 3  # Kinect frames that told a still person's facing before it is published ...
+    facing_agreement: float = 0.6  # ... and the length of the mean of their unit vectors (1: all agree)
 
     def validate(self):
         for name in ("kinect_gate", "laser_gate", "laser_confirm_distance", "timeout", "tentative_timeout",
@@ -115,6 +127,8 @@ class TrackerParams:
             raise ValueError(f"max_speed must be > 0, got {self.max_speed}")
         if self.appearance_weight < 0 or not 0 < self.appearance_gate <= 1 or self.appearance_after < 1:
             raise ValueError("need appearance_weight >= 0, 0 < appearance_gate <= 1, appearance_after >= 1")
+        if not self.facing_walk_speed > 0 or self.facing_frames < 1 or not 0 <= self.facing_agreement <= 1:
+            raise ValueError("need facing_walk_speed > 0, facing_frames >= 1 and 0 <= facing_agreement <= 1")
         if not 0 < self.reid_threshold <= 1:
             raise ValueError(f"reid_threshold must be in (0, 1], got {self.reid_threshold}")
         return self
@@ -146,6 +160,8 @@ class Track:
     sources: set = field(default_factory=set)  # sensors that updated it since the last publication
     updated: tuple | None = None  # ((x, y), (vx, vy)) just after the last update
     superseded: bool = False  # a newer track of the same person took its persistent id over
+    facing_sum: np.ndarray = field(default_factory=lambda: np.zeros(2))  # sum of the facings' unit vectors ...
+    facing_count: int = 0  # ... and how many, since the person last walked
 
     @property
     def confirmed(self):
@@ -169,6 +185,17 @@ class Track:
     @property
     def velocity(self):
         return self.filter.velocity
+
+    def facing(self, params):
+        """Which way [rad] the person faces in the fixed frame, or None (module docstring)."""
+        vx, vy = self.velocity
+        if math.hypot(vx, vy) >= params.facing_walk_speed:
+            return math.atan2(vy, vx)
+        if self.facing_count < params.facing_frames:
+            return None
+        if float(np.hypot(*self.facing_sum)) < params.facing_agreement * self.facing_count:
+            return None
+        return math.atan2(self.facing_sum[1], self.facing_sum[0])
 
 
 class Tracker:
@@ -296,9 +323,14 @@ class Tracker:
         track.sources.add(source)
         x, y = track.position
         track.travelled = max(track.travelled, float(np.hypot(x - track.start[0], y - track.start[1])))
+        if float(np.hypot(*track.velocity)) >= self.params.facing_walk_speed:
+            track.facing_sum, track.facing_count = np.zeros(2), 0
         if source == KINECT:
             track.last_kinect = t
             track.kinect_hits += 1
+            if det.facing is not None and math.isfinite(det.facing):
+                track.facing_sum = track.facing_sum + np.array([math.cos(det.facing), math.sin(det.facing)])
+                track.facing_count += 1
             if det.signature is not None and not self._crowded(track, det):
                 track.signatures += 1
                 track.signature = det.signature if track.signature is None else \
