@@ -206,13 +206,16 @@ class LocatorSession(PeopleSession):
 
     def place_robot(self, pose, tolerance=0.3, attempts=3):
         """Carry the robot to ``pose`` (x, y, yaw) and tell amcl, until the locator's getRobotPosXYPhi
-        agrees within ``tolerance`` [m] (amcl takes an initial pose with its next scan update)."""
+        agrees within ``tolerance`` [m] (amcl takes an initial pose with its next scan update); then
+        what the monitor and move_base kept is cleared once more (a frame taken before the carry may
+        have come in after the first clearing)."""
         for _ in range(attempts):
             self.set_robot(*pose)
             try:
                 wait_for(lambda: (r := self.call("getRobotPosXYPhi")).success
                          and math.hypot(r.x - pose[0], r.y - pose[1]) < tolerance, 20.0,
                          what="amcl to take the robot's new pose")
+                self.forget_surroundings()
                 return
             except Exception:  # noqa: BLE001 - tell it again
                 continue

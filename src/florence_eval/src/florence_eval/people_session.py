@@ -25,6 +25,7 @@ from florence_common_ros.convert import to_xyyaw
 from florence_eval import people_metrics
 
 FORGET = "/collision_monitor/forget"  # std_srvs/Trigger: the monitor drops what it remembers
+CLEAR_COSTMAPS = "/move_base/clear_costmaps"  # std_srvs/Empty: move_base's costmaps drop what the sensors marked
 
 
 def launch_stack(master, start, real_time_factor=1.0, seed=1, people=None, amcl=True, tracker_args=()):
@@ -204,25 +205,19 @@ class PeopleSession:
 
     def set_robot(self, x, y, yaw, initialpose=True):
         """Carry the robot to (x, y, yaw) in the map; with ``initialpose``, tell amcl (/initialpose).
-        A collision monitor running forgets what it remembers (~forget): odometry did not see the
-        carry, and what its depth memory kept near the robot (a person approached last, above and
-        below the Kinect's view) would stand before it for good."""
+        A collision monitor running forgets what it remembers (~forget), and move_base's costmaps are
+        cleared (as whoever carries the real robot does): odometry did not see the carry, so what they
+        kept in the odometry frame would stand around the robot where it was put (what the monitor's
+        depth memory kept near the robot, a person approached last above and below the Kinect's view,
+        for good)."""
         from geometry_msgs.msg import PoseWithCovarianceStamped
-        from std_srvs.srv import Trigger
 
         from florence_common_ros.convert import pose_msg
         from florence_sim.srv import SetRobotPose
 
         self.stop()
         self._call("set_robot_pose", SetRobotPose, x, y, yaw)
-        try:
-            rosgraph.Master("/people_session").lookupService(FORGET)
-        except rosgraph.MasterError:
-            pass  # no collision monitor in this stack
-        else:
-            answer = rospy.ServiceProxy(FORGET, Trigger)()
-            if not answer.success:
-                raise RuntimeError(f"{FORGET}: {answer.message}")
+        self.forget_surroundings()
         if initialpose:
             msg = PoseWithCovarianceStamped()
             msg.header.frame_id = "map"
@@ -231,6 +226,19 @@ class PeopleSession:
             msg.pose.covariance[0] = msg.pose.covariance[7] = 0.01  # [m^2]
             msg.pose.covariance[35] = 0.005  # [rad^2]
             self.initialpose.publish(msg)
+
+    def forget_surroundings(self):
+        """The collision monitor's memory and move_base's costmaps cleared, those of them running."""
+        from std_srvs.srv import Empty, Trigger
+
+        for name, kind in ((FORGET, Trigger), (CLEAR_COSTMAPS, Empty)):
+            try:
+                rosgraph.Master("/people_session").lookupService(name)
+            except rosgraph.MasterError:
+                continue  # not in this stack
+            answer = rospy.ServiceProxy(name, kind)()
+            if kind is Trigger and not answer.success:
+                raise RuntimeError(f"{name}: {answer.message}")
 
     def drive(self, v, w, seconds, period=0.05):
         """Command (v [m/s], w [rad/s]) for ``seconds`` of simulated time, then stop."""
