@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 import pytest
-from approach_me_map.poses import Align, AlignParams, ApproachParams, ObstacleGrid, path_keeps, rank
+from approach_me_map.poses import Align, AlignParams, ApproachParams, ObstacleGrid, rank
 
 from florence_common import angles
 
@@ -66,27 +66,6 @@ def test_what_the_laser_sees_keeps_poses_off_a_seated_users_shins():
     assert np.hypot(shins[:, 0] - best.x, shins[:, 1] - best.y).min() >= P.min_clearance
     assert 30 < abs(math.degrees(best.offset)) <= 90  # still in front of her, wider
     assert abs(math.degrees(rank(user, robot, P, room(), facing=facing)[0].offset)) == pytest.approx(30.0)
-
-
-def test_move_base_is_sent_to_the_staging_point_on_the_candidates_line_as_far_out_as_the_room_allows():
-    user, robot = (4.0, 4.0), (4.0, 1.0)
-    best = rank(user, robot, P, room())[0]
-    sx, sy = best.staging
-    assert math.hypot(sx - user[0], sy - user[1]) == pytest.approx(P.staging_distance)
-    assert abs(angles.diff(math.atan2(sy - user[1], sx - user[0]), best.angle)) < 1e-9
-    # a wall 0.85 m south of the user: the staging points south stop 0.25 m short of it
-    near_wall = rank(user, robot, P, room(walls=[(0.0, 2.9, 8.0, 3.15)]))
-    south = next(c for c in near_wall if abs(angles.diff(c.angle, -math.pi / 2)) < 1e-6)
-    assert 0.5 <= user[1] - south.staging[1] <= 0.85 - P.min_clearance + 0.05
-    assert math.hypot(south.staging[0] - south.x, south.staging[1] - south.y) < P.staging_distance - P.safe_distance
-
-
-def test_a_way_round_the_user_nearer_than_the_pass_distance_does_not_keep_it():
-    user = (4.0, 4.0)
-    round_her = [(5.0, 4.0), (4.5, 4.4), (4.0, 4.55), (3.2, 4.0)]  # 0.55 m north of her on the way
-    wide = [(5.0, 4.0), (4.7, 4.7), (4.0, 5.0), (3.2, 4.0)]
-    assert not path_keeps(round_her, user, 0.6)
-    assert path_keeps(wide, user, 0.6) and path_keeps([], user, 0.6)
 
 
 def test_a_wall_beside_the_user_leaves_the_other_side():

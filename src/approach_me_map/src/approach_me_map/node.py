@@ -48,7 +48,7 @@ from nav_msgs.srv import GetPlan
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import String
 
-from approach_me_map.poses import Align, AlignParams, ApproachParams, ObstacleGrid, path_keeps, rank
+from approach_me_map.poses import Align, AlignParams, ApproachParams, ObstacleGrid, rank
 from detect_users.msg import DetectedUser
 from florence_common import angles
 from florence_common import pose as pose2d
@@ -71,17 +71,9 @@ PARAMS = ParamTable(
           unit="deg", gt=0, le=90),
     Param("preferred_offset", float, math.degrees(_A.preferred_offset), "front-left / front-right: the angle "
           "at the user from the line to the robot that costs least", unit="deg", ge=0, le=60),
-    Param("staging_distance", float, _A.staging_distance, "move_base is sent this far from the user on the line "
-          "through the chosen pose (nearer where the room ends, safe_distance at least); the last half metre "
-          "drives the rest", unit="m", ge=0.45, le=2.0),
-    Param("pass_distance", float, 0.6, "a pose whose planned way passes nearer the user than this comes after "
-          "those whose way does not (move_base's TrajectoryPlannerROS/min_person_distance: it would wait for her to "
-          "go)", unit="m", ge=0),
     Param("min_clearance", float, _A.min_clearance, "a pose this near walls or furniture of the map is not "
           "used", unit="m", ge=0),
     Param("goal_timeout", float, 120.0, "longest move_base trial", unit="s", gt=0),
-    Param("stall_timeout", float, 30.0, "a trial whose move_base came no 0.1 m nearer the pose for this long "
-          "ends (waiting for the user herself to go, say)", unit="s", gt=0),
     Param("align", bool, True, "after move_base, turn to the user and drive to safe_distance (the last half "
           "metre); false: move_base's tolerance only"),
     Param("align_speed", float, _L.max_speed, "fastest straight move of the last half metre", unit="m/s", gt=0,
@@ -118,7 +110,7 @@ class ApproachMeMapNode:
     def __init__(self):
         self.p = p = read_params(PARAMS)
         self.params = ApproachParams(p.safe_distance, math.radians(p.candidate_step), math.radians(p.preferred_offset),
-                                     min_clearance=p.min_clearance, staging_distance=p.staging_distance)
+                                     min_clearance=p.min_clearance)
         self.align_params = AlignParams(p.safe_distance, p.align_speed, front_margin=p.front_margin,
                                         accept_distance=p.accept_distance, accept_angle=math.radians(p.accept_angle),
                                         blocked_accept=p.blocked_accept)
@@ -209,9 +201,7 @@ class ApproachMeMapNode:
                 k, facing = self._nearest(self.user)
                 if k is not None:
                     self.user = (float(xy[k, 0]), float(xy[k, 1]))
-                    # taken once: the Kinect tells a seated user's facing from afar, and nothing better
-                    # comes close up (a track's position jitter there can look like walking)
-                    if facing is not None and self.facing is None:
+                    if facing is not None:  # kept when the Kinect no longer sees the shins (close up)
                         self.facing = facing
 
     def _nearest(self, point):
@@ -312,7 +302,7 @@ class ApproachMeMapNode:
                                              f"{math.degrees(facing):.0f} deg (map)"))
             if trial == 1:
                 self._publish_candidates(candidates)
-            goal = self._plannable(candidates, robot, beat, user)
+            goal = self._plannable(candidates, robot, beat)
             if goal is None:
                 notes.append(f"trial {trial}: no pose around ({user[0]:.2f}, {user[1]:.2f}) with a path"
                              + ("" if candidates else " (none free on the map)"))
@@ -324,27 +314,21 @@ class ApproachMeMapNode:
                 return "SUCCEEDED", "; ".join(notes)
         return "ABORTED", "; ".join(notes) or "no trial"
 
-    def _plannable(self, candidates, robot, beat, user):
-        """The best candidate whose make_plan path keeps ~pass_distance from the user all the way, else the
-        best with a path at all, else None."""
-        fallback = None
+    def _plannable(self, candidates, robot, beat):
         for c in candidates[:self.p.plan_checks]:
             self._check()
             self._heartbeat(beat)
             try:
                 self.make_plan.wait_for_service(2.0)
                 plan = self.make_plan(start=convert.pose_stamped(*robot, self.p.map_frame, rospy.Time.now()),
-                                      goal=convert.pose_stamped(*c.staging, c.yaw, self.p.map_frame, rospy.Time.now()),
+                                      goal=convert.pose_stamped(c.x, c.y, c.yaw, self.p.map_frame, rospy.Time.now()),
                                       tolerance=0.0).plan
             except (rospy.ROSException, rospy.ServiceException) as exc:
                 rospy.logwarn_throttle(5.0, LOG + "make_plan failed: %s", exc)
                 continue
-            if not plan.poses:
-                continue
-            if path_keeps([(q.pose.position.x, q.pose.position.y) for q in plan.poses], user, self.p.pass_distance):
+            if plan.poses:
                 return c
-            fallback = fallback or c  # the way there passes her nearer: move_base may wait for her to go
-        return fallback
+        return None
 
     def _scan_in_map(self, scan, robot):
         """The newest scan's points [N, 2] in the map frame (robot: the pose (x, y, yaw) there), or None
@@ -358,18 +342,22 @@ class ApproachMeMapNode:
         """One trial: move_base to ``goal``, then the last half metre. (ok, what happened)."""
         p = self.p
         done = threading.Event()
-        self.client.send_goal(MoveBaseGoal(target_pose=convert.pose_stamped(*goal.staging, goal.yaw, p.map_frame,
+        self.client.send_goal(MoveBaseGoal(target_pose=convert.pose_stamped(goal.x, goal.y, goal.yaw, p.map_frame,
                                                                             rospy.Time.now())),
                               done_cb=lambda *_: done.set())
-        watch = {"started": rospy.get_time(), "least": math.inf, "since": rospy.get_time()}
+        started = rospy.get_time()
         try:
             while not done.wait(0.1):
                 self._check()
                 self._heartbeat(beat)
-                verdict, why = self._watch(goal, user, watch)
-                if verdict is not None:
+                with self.lock:
+                    now_user = self.user
+                if math.hypot(now_user[0] - user[0], now_user[1] - user[1]) > p.retarget_distance:
                     self.client.cancel_goal()
-                    return self._align(beat) if verdict == "align" else (False, why)
+                    return False, f"the user moved to ({now_user[0]:.2f}, {now_user[1]:.2f})"
+                if rospy.get_time() - started > p.goal_timeout:
+                    self.client.cancel_goal()
+                    return False, f"move_base took longer than {p.goal_timeout:.0f} s"
         except Cancelled:
             self.client.cancel_goal()
             raise
@@ -382,44 +370,15 @@ class ApproachMeMapNode:
             < p.safe_distance + 0.6
         if state != GoalStatus.SUCCEEDED and not near:
             return False, f"move_base {state_name(state)}: {text}"
-        if state != GoalStatus.SUCCEEDED and not self._on_its_side(robot, now_user, goal, p.safe_distance + 0.6):
-            off = math.atan2(robot[1] - now_user[1], robot[0] - now_user[0])
-            return False, (f"move_base {state_name(state)}: {text} (stopped "
-                           f"{math.degrees(abs(angles.diff(off, goal.angle))):.0f} deg around her from the pose)")
+        if state != GoalStatus.SUCCEEDED:  # near her, but on the side the trial was for?
+            side = math.atan2(robot[1] - now_user[1], robot[0] - now_user[0])
+            off = abs(angles.diff(side, goal.angle))
+            if off > math.radians(p.align_angle):
+                return False, (f"move_base {state_name(state)}: {text} (stopped {math.degrees(off):.0f} deg around her "
+                               f"from the pose)")
         if not p.align:
             return True, f"move_base {state_name(state)}"
         return self._align(beat)
-
-    def _watch(self, goal, user, watch):
-        """While move_base drives a trial: (None, ''), ("align", why): near her on the trial's side, the
-        rest straight (move_base's last metre near a person is its slowest: inflation,
-        min_person_distance), or ("fail", why). ``watch``: the trial's progress, updated."""
-        p = self.p
-        with self.lock:
-            now_user = self.user
-        if math.hypot(now_user[0] - user[0], now_user[1] - user[1]) > p.retarget_distance:
-            return "fail", f"the user moved to ({now_user[0]:.2f}, {now_user[1]:.2f})"
-        now = rospy.get_time()
-        if now - watch["started"] > p.goal_timeout:
-            return "fail", f"move_base took longer than {p.goal_timeout:.0f} s"
-        robot, _ = self._robot(p.map_frame)
-        if robot is None:
-            return None, ""
-        if p.align and self._on_its_side(robot, now_user, goal, p.staging_distance + 0.15):
-            return "align", "near her on the trial's side"
-        gap = math.hypot(robot[0] - goal.staging[0], robot[1] - goal.staging[1])
-        if gap < watch["least"] - 0.1:
-            watch["least"], watch["since"] = gap, now
-        elif now - watch["since"] > p.stall_timeout:
-            return "fail", f"move_base made no way toward the pose for {p.stall_timeout:.0f} s"
-        return None, ""
-
-    def _on_its_side(self, robot, user, goal, within):
-        """Whether the robot is within ``within`` [m] of the user and within ~align_angle around her of
-        the trial's pose."""
-        side = math.atan2(robot[1] - user[1], robot[0] - user[0])
-        return math.hypot(robot[0] - user[0], robot[1] - user[1]) <= within \
-            and abs(angles.diff(side, goal.angle)) <= math.radians(self.p.align_angle)
 
     def _align(self, beat):
         """The last half metre in the odometry frame."""

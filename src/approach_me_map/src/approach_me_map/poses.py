@@ -23,13 +23,6 @@ crosses no obstacle (no pose on the far side of a wall). Candidates are ranked
 Where the tracker does not say which way a person faces, "front" is the side the robot saw them
 from.
 
-**Staging.** move_base is not sent to the candidate itself but to its staging point: on the same
-line from the user, ``staging_distance`` (0.8 m) from her, or as far out toward it as the map and the
-laser leave ``min_clearance`` (the candidate itself at the least). Half a metre from a person
-move_base's footprint checks fight her legs and its people layer waits for her to go (a tracked
-position 0.1-0.15 m off, as from behind, puts the candidate on her knees); the last half metre
-below drives the rest, straight and slowly, with the laser ahead.
-
 **Trials.** approach_me_map asks move_base's ``make_plan`` for the best candidates first (those
 without a path are skipped), sends the first with a path to move_base, and after a failure tries
 the next one at least ``trial_separation`` away in angle: at most 3 trials (seed 3.10).
@@ -60,7 +53,6 @@ class ApproachParams:
     user_radius: float = 0.3  # [m] obstacles this near the user are the user's seat (sofa, chair, bed)
     trial_separation: float = math.radians(40.0)  # [rad] a new trial differs this much from the tried ones
     right_bonus: float = 0.05  # cost taken off the person's right side
-    staging_distance: float = 0.8  # [m] move_base's goal on the candidate's line from the user, room allowing
 
 
 @dataclass(frozen=True)
@@ -72,7 +64,6 @@ class Candidate:
     offset: float  # [rad] angle at the user from their front (or the line to the robot), counter-clockwise positive
     clearance: float  # [m] to the nearest obstacle of the map
     cost: float
-    staging: tuple = ()  # (x, y) [m] move_base's goal on the line from the user through the candidate
 
 
 class ObstacleGrid(Grid):
@@ -108,15 +99,11 @@ def rank(user, robot, p, grid=None, exclude=(), facing=None, obstacles=None):
     offsets = np.array([angles.wrap(k * 2 * math.pi / n) for k in range(n)])
     directions = front + offsets
     xy = np.column_stack([ux + p.safe_distance * np.cos(directions), uy + p.safe_distance * np.sin(directions)])
-    pts = None if obstacles is None or not len(obstacles) else np.asarray(obstacles, float).reshape(-1, 2)
-
-    def clear(at):
-        c = np.full(len(at), math.inf) if grid is None else grid.clearance_at(at)
-        if pts is not None:
-            c = np.minimum(c, np.hypot(at[:, None, 0] - pts[None, :, 0], at[:, None, 1] - pts[None, :, 1]).min(axis=1))
-        return c
-
-    clearance = clear(xy)
+    clearance = np.full(n, math.inf) if grid is None else grid.clearance_at(xy)
+    if obstacles is not None and len(obstacles):
+        pts = np.asarray(obstacles, float).reshape(-1, 2)
+        seen = np.hypot(xy[:, None, 0] - pts[None, :, 0], xy[:, None, 1] - pts[None, :, 1]).min(axis=1)
+        clearance = np.minimum(clearance, seen)
     out = []
     for k in range(n):
         direction = float(angles.wrap(directions[k]))
@@ -132,26 +119,9 @@ def rank(user, robot, p, grid=None, exclude=(), facing=None, obstacles=None):
             cost -= p.right_bonus
         cost += 0.1 * float(np.hypot(xy[k, 0] - robot[0], xy[k, 1] - robot[1]))
         out.append(Candidate(float(xy[k, 0]), float(xy[k, 1]), float(angles.wrap(direction + math.pi)), direction,
-                             off, float(clearance[k]), float(cost), _staging(user, direction, p, clear)))
+                             off, float(clearance[k]), float(cost)))
     out.sort(key=lambda c: c.cost)
     return out
-
-
-def path_keeps(path, user, distance):
-    """Whether every point of ``path`` [(x, y), ...] [m] is at least ``distance`` [m] from ``user`` (x, y)."""
-    xy = np.asarray(path, float).reshape(-1, 2)
-    return not len(xy) or float(np.hypot(xy[:, 0] - user[0], xy[:, 1] - user[1]).min()) >= distance - 1e-9
-
-
-def _staging(user, direction, p, clear):
-    """(x, y) of the farthest point out to staging_distance on the line from ``user`` at ``direction``
-    whose clearance (``clear``) is min_clearance, walking out from safe_distance (module docstring)."""
-    steps = max(1, math.ceil((p.staging_distance - p.safe_distance) / 0.05))
-    d = np.linspace(p.safe_distance, max(p.staging_distance, p.safe_distance), steps + 1)
-    at = np.column_stack([user[0] + d * math.cos(direction), user[1] + d * math.sin(direction)])
-    ok = clear(at) >= p.min_clearance
-    k = len(d) - 1 if ok.all() else max(int(np.argmin(ok)) - 1, 0)  # the last free one before the first blocked
-    return float(at[k, 0]), float(at[k, 1])
 
 
 def _angle_cost(offset, p):
