@@ -111,6 +111,11 @@ def test_goto_room_reaches_every_room_and_get_robot_pos_room_agrees(stack):
     print(f"gotoRoom legs (room, state, error m, sim s): {legs}")
 
 
+@pytest.mark.xfail(strict=False, reason=(
+    "known defect (issue 20): on the merged stack the robot, seeing the seated user on its way in from the kitchen, "
+    "ends 0.52-0.55 m from her but behind her (side 176-179 deg; 3 runs of 3, with and without move_base's people "
+    "layers): approach_me_map's 'front' is the side the robot saw her from, the tracker does not know which way a "
+    "seated person faces"))
 def test_goto_user_sitting_in_the_living_room_from_the_kitchen(stack):
     session, procs = stack
     session.place_robot(hotspot(session, "kitchen"))
