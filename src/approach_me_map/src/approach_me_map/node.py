@@ -89,8 +89,6 @@ PARAMS = ParamTable(
     Param("nose", float, 0.24, "the robot's front edge from its centre (the footprint's tip)", unit="m", gt=0),
     Param("half_width", float, 0.19, "half the robot's width, plus a margin (the corridor checked ahead)",
           unit="m", gt=0),
-    Param("align_angle", float, 35.0, "after move_base failed, the last half metre is driven only from within "
-          "this angle at the user of the pose move_base was sent to (else the next trial)", unit="deg", gt=0, le=180),
     Param("track_gate", float, 0.6, "a tracked person this near the user's position is the user", unit="m",
           gt=0),
     Param("retarget_distance", float, 0.5, "the user moved this far: the trial starts over from there",
@@ -159,6 +157,9 @@ class ApproachMeMapNode:
             self.grid = grid
 
     def _on_scan(self, msg):
+        with self.lock:
+            if not self.running:
+                return
         m, why = lookup_matrix(self.tf_buffer, self.p.base_frame, msg.header.frame_id, rospy.Time(0), 0.0)  # fixed
         if m is None:
             rospy.logwarn_throttle(5.0, LOG + "scan skipped: %s", why)
@@ -294,9 +295,8 @@ class ApproachMeMapNode:
             if robot is None:
                 return "ABORTED", f"no robot pose: {why}"
             with self.lock:
-                user, grid, facing, scan = self.user, self.grid, self.facing, self.scan
-            candidates = rank(user, robot[:2], self.params, grid, exclude=tried, facing=facing,
-                              obstacles=self._scan_in_map(scan, robot))
+                user, grid, facing = self.user, self.grid, self.facing
+            candidates = rank(user, robot[:2], self.params, grid, exclude=tried, facing=facing)
             if trial == 1:
                 notes.append("she faces " + ("an unknown way: the robot's side first" if facing is None else
                                              f"{math.degrees(facing):.0f} deg (map)"))
@@ -330,14 +330,6 @@ class ApproachMeMapNode:
                 return c
         return None
 
-    def _scan_in_map(self, scan, robot):
-        """The newest scan's points [N, 2] in the map frame (robot: the pose (x, y, yaw) there), or None
-        without a scan of the last second."""
-        if scan is None or rospy.get_time() - scan[0] > 1.0:
-            return None
-        c, s = math.cos(robot[2]), math.sin(robot[2])
-        return scan[1] @ np.array([[c, s], [-s, c]]) + np.asarray(robot[:2])
-
     def _drive(self, goal, user, beat):
         """One trial: move_base to ``goal``, then the last half metre. (ok, what happened)."""
         p = self.p
@@ -370,12 +362,6 @@ class ApproachMeMapNode:
             < p.safe_distance + 0.6
         if state != GoalStatus.SUCCEEDED and not near:
             return False, f"move_base {state_name(state)}: {text}"
-        if state != GoalStatus.SUCCEEDED:  # near her, but on the side the trial was for?
-            side = math.atan2(robot[1] - now_user[1], robot[0] - now_user[0])
-            off = abs(angles.diff(side, goal.angle))
-            if off > math.radians(p.align_angle):
-                return False, (f"move_base {state_name(state)}: {text} (stopped {math.degrees(off):.0f} deg around her "
-                               f"from the pose)")
         if not p.align:
             return True, f"move_base {state_name(state)}"
         return self._align(beat)

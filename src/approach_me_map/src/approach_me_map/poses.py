@@ -2,9 +2,8 @@
 
 **Candidate poses.** On a circle of ``safe_distance`` (0.5 m, seed) around the user, every
 ``step`` degrees, facing the user. A candidate needs ``min_clearance`` [m] to every wall,
-piece of furniture and unknown cell of the robot's map and to what the laser sees now (a seated
-user's knees and shins stand in front of her), and a straight line of sight to the user that
-crosses no obstacle (no pose on the far side of a wall). Candidates are ranked
+piece of furniture and unknown cell of the robot's map, and a straight line of sight to the user
+that crosses no obstacle (no pose on the far side of a wall). Candidates are ranked
 (:func:`rank`), best first:
 
 - in front of the user: the angle at the user between the way they face and the line to the
@@ -85,13 +84,12 @@ class ObstacleGrid(Grid):
         return self.clearance_at(xy) >= radius
 
 
-def rank(user, robot, p, grid=None, exclude=(), facing=None, obstacles=None):
+def rank(user, robot, p, grid=None, exclude=(), facing=None):
     """Candidate poses around ``user`` (x, y) [m] for a robot at ``robot`` (x, y) [m], best first
     (module docstring). ``grid``: an ObstacleGrid (None: every pose is free); ``exclude``: angles
     [rad] around the user already tried (candidates nearer than p.trial_separation are left out);
     ``facing``: which way [rad] the user faces (None or NaN: unknown, the line to the robot stands
-    for it); ``obstacles``: points [N, 2] [m] the laser sees now (a seated user's legs, a chair moved
-    since the map was made), kept ``min_clearance`` from as the map's obstacles are."""
+    for it)."""
     ux, uy = user
     known = facing is not None and math.isfinite(facing)
     front = float(facing) if known else math.atan2(robot[1] - uy, robot[0] - ux)
@@ -100,10 +98,6 @@ def rank(user, robot, p, grid=None, exclude=(), facing=None, obstacles=None):
     directions = front + offsets
     xy = np.column_stack([ux + p.safe_distance * np.cos(directions), uy + p.safe_distance * np.sin(directions)])
     clearance = np.full(n, math.inf) if grid is None else grid.clearance_at(xy)
-    if obstacles is not None and len(obstacles):
-        pts = np.asarray(obstacles, float).reshape(-1, 2)
-        seen = np.hypot(xy[:, None, 0] - pts[None, :, 0], xy[:, None, 1] - pts[None, :, 1]).min(axis=1)
-        clearance = np.minimum(clearance, seen)
     out = []
     for k in range(n):
         direction = float(angles.wrap(directions[k]))
