@@ -40,20 +40,6 @@ def test_open_space_front_left_or_front_right_on_the_robots_side():
     assert all(abs(math.degrees(c.offset)) > 90 for c in ranked[-9:])
 
 
-@pytest.mark.parametrize("facing_deg", [90, 0, 135])
-def test_a_user_who_faces_away_from_the_robot_is_approached_from_her_front(facing_deg):
-    """The robot south of the user; she faces north (or east, or north-west): her front, not the robot's side."""
-    user, robot, facing = (4.0, 4.0), (4.0, 1.0), math.radians(facing_deg)
-    ranked = rank(user, robot, P, room(), facing=facing)
-    best = ranked[0]
-    assert abs(math.degrees(angles.diff(best.angle, facing))) == pytest.approx(30.0)
-    assert math.degrees(angles.diff(best.angle, facing)) < 0  # her right
-    assert all(abs(angles.diff(c.angle, facing)) > math.pi / 2 for c in ranked[-9:])  # behind her last
-    # unknown: the robot's side
-    for unknown in (None, math.nan):
-        assert rank(user, robot, P, room(), facing=unknown)[0].y < user[1]
-
-
 def test_a_wall_beside_the_user_leaves_the_other_side():
     user, robot = (4.0, 4.0), (4.0, 1.0)
     # a wall 0.35 m to the user's east (x 4.35 .. 4.5): the south-east poses lack clearance

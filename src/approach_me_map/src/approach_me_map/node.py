@@ -50,7 +50,6 @@ from std_msgs.msg import String
 
 from approach_me_map.poses import Align, AlignParams, ApproachParams, ObstacleGrid, rank
 from detect_users.msg import DetectedUser
-from florence_common import angles
 from florence_common import pose as pose2d
 from florence_common.params import FRAME, Param, ParamTable
 from florence_common_ros import convert
@@ -116,8 +115,6 @@ class ApproachMeMapNode:
         self.grid = None
         self.request = None  # (x, y) of the newest detection not yet taken
         self.user = None  # (x, y) [m, map] of the user being approached
-        self.facing = None  # [rad, map] which way that user faces, when the tracker told it
-        self.people = None  # (xy [N, 2], facings [N], NaN: unknown) [map] of the newest tracked users
         self.scan = None  # (stamp [s], points [N, 2] in base_frame)
         self.speed = (0.0, 0.0, -math.inf)  # v [m/s], w [rad/s], stamp [s]
         self.running = False
@@ -179,7 +176,9 @@ class ApproachMeMapNode:
                 self.speed = (v, w, msg.header.stamp.to_sec())
 
     def _on_users(self, msg):
-        if not msg.user_ids or len(msg.positions) != len(msg.user_ids) or not msg.frame_id:
+        with self.lock:
+            user = self.user if self.running else None
+        if user is None or not msg.user_ids or len(msg.positions) != len(msg.user_ids) or not msg.frame_id:
             return
         # the latest map -> frame_id (amcl's map -> odom changes slowly; a lookup at the stamp fails
         # whenever amcl's transform comes late)
@@ -189,33 +188,15 @@ class ApproachMeMapNode:
             return
         pts = np.array([[q.x, q.y, 0.0, 1.0] for q in msg.positions])
         xy = (m @ pts.T).T[:, :2]
-        facings = np.full(len(xy), np.nan)
-        if len(msg.facings) == len(xy):  # a tracker that tells (user_tracker_ni appended the field)
-            facings = np.asarray(msg.facings, float) + math.atan2(m[1, 0], m[0, 0])
-        ok = np.all(np.isfinite(xy), axis=1)
-        xy, facings = xy[ok], facings[ok]
+        xy = xy[np.all(np.isfinite(xy), axis=1)]
         if not len(xy):
             return
-        with self.lock:
-            self.people = (xy, facings)
-            if self.running and self.user is not None:
-                k, facing = self._nearest(self.user)
-                if k is not None:
-                    self.user = (float(xy[k, 0]), float(xy[k, 1]))
-                    if facing is not None:  # kept when the Kinect no longer sees the shins (close up)
-                        self.facing = facing
-
-    def _nearest(self, point):
-        """(index, facing [rad] or None) of the tracked user nearest ``point`` within ~track_gate, or
-        (None, None). Call with the lock held."""
-        if self.people is None:
-            return None, None
-        xy, facings = self.people
-        d = np.hypot(xy[:, 0] - point[0], xy[:, 1] - point[1])
+        d = np.hypot(xy[:, 0] - user[0], xy[:, 1] - user[1])
         k = int(np.argmin(d))
-        if d[k] > self.p.track_gate:
-            return None, None
-        return k, (float(angles.wrap(facings[k])) if math.isfinite(facings[k]) else None)
+        if d[k] <= self.p.track_gate:
+            with self.lock:
+                if self.running:
+                    self.user = (float(xy[k, 0]), float(xy[k, 1]))
 
     def _on_detected(self, msg):
         if not msg.command:
@@ -248,7 +229,6 @@ class ApproachMeMapNode:
             self.cancel.clear()
             with self.lock:
                 self.user, self.running = request, True
-                self.facing = self._nearest(request)[1]
             outcome, why = "ABORTED", ""
             try:
                 outcome, why = self._approach()
@@ -295,11 +275,8 @@ class ApproachMeMapNode:
             if robot is None:
                 return "ABORTED", f"no robot pose: {why}"
             with self.lock:
-                user, grid, facing = self.user, self.grid, self.facing
-            candidates = rank(user, robot[:2], self.params, grid, exclude=tried, facing=facing)
-            if trial == 1:
-                notes.append("she faces " + ("an unknown way: the robot's side first" if facing is None else
-                                             f"{math.degrees(facing):.0f} deg (map)"))
+                user, grid = self.user, self.grid
+            candidates = rank(user, robot[:2], self.params, grid, exclude=tried)
             if trial == 1:
                 self._publish_candidates(candidates)
             goal = self._plannable(candidates, robot, beat)
@@ -309,7 +286,7 @@ class ApproachMeMapNode:
                 break
             tried.append(goal.angle)
             ok, why = self._drive(goal, user, beat)
-            notes.append(f"trial {trial} at {math.degrees(goal.offset):+.0f} deg from her front: {why}")
+            notes.append(f"trial {trial} at {math.degrees(goal.offset):+.0f} deg: {why}")
             if ok:
                 return "SUCCEEDED", "; ".join(notes)
         return "ABORTED", "; ".join(notes) or "no trial"

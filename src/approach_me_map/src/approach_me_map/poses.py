@@ -6,12 +6,10 @@ piece of furniture and unknown cell of the robot's map, and a straight line of s
 that crosses no obstacle (no pose on the far side of a wall). Candidates are ranked
 (:func:`rank`), best first:
 
-- in front of the user: the angle at the user between the way they face and the line to the
-  candidate, ``offset``, is what counts. Behind them costs most (Walters et al. 2007: never
-  from behind). When the tracker does not know which way they face (user_tracker_ni tells it for a
-  walking person and, by the shins in front of the torso, a seated one), the line to the robot
-  stands for it: the robot's side first (seed 3.10: "first on the robot's side"), the far side
-  last;
+- on the robot's side of the user (seed 3.10: "first on the robot's side"): the angle at the user
+  between the line to the robot and the line to the candidate, ``offset``, is what counts. The
+  far side costs most: a person who faces the robot that found them would be approached from
+  behind (Walters et al. 2007: never from behind);
 - front-left or front-right rather than head-on: an offset near ``preferred_offset`` (30 deg)
   costs least (Dautenhahn et al. 2006: seated people dislike a frontal approach and prefer the
   left or right, slightly the right; Walters et al. 2007: frontal is acceptable for a standing
@@ -19,7 +17,7 @@ that crosses no obstacle (no pose on the far side of a wall). Candidates are ran
 - the person's right (the robot's left as it faces them) by a little;
 - more room around the pose, then the shorter way for the robot.
 
-Where the tracker does not say which way a person faces, "front" is the side the robot saw them
+The tracker does not say which way a person faces, so "front" is the side the robot saw them
 from.
 
 **Trials.** approach_me_map asks move_base's ``make_plan`` for the best candidates first (those
@@ -60,7 +58,7 @@ class Candidate:
     y: float
     yaw: float  # [rad] facing the user
     angle: float  # [rad] direction from the user to the pose
-    offset: float  # [rad] angle at the user from their front (or the line to the robot), counter-clockwise positive
+    offset: float  # [rad] angle at the user from the line to the robot, counter-clockwise positive
     clearance: float  # [m] to the nearest obstacle of the map
     cost: float
 
@@ -84,18 +82,15 @@ class ObstacleGrid(Grid):
         return self.clearance_at(xy) >= radius
 
 
-def rank(user, robot, p, grid=None, exclude=(), facing=None):
+def rank(user, robot, p, grid=None, exclude=()):
     """Candidate poses around ``user`` (x, y) [m] for a robot at ``robot`` (x, y) [m], best first
     (module docstring). ``grid``: an ObstacleGrid (None: every pose is free); ``exclude``: angles
-    [rad] around the user already tried (candidates nearer than p.trial_separation are left out);
-    ``facing``: which way [rad] the user faces (None or NaN: unknown, the line to the robot stands
-    for it)."""
+    [rad] around the user already tried (candidates nearer than p.trial_separation are left out)."""
     ux, uy = user
-    known = facing is not None and math.isfinite(facing)
-    front = float(facing) if known else math.atan2(robot[1] - uy, robot[0] - ux)
+    toward_robot = math.atan2(robot[1] - uy, robot[0] - ux)
     n = max(4, round(2 * math.pi / p.step))
     offsets = np.array([angles.wrap(k * 2 * math.pi / n) for k in range(n)])
-    directions = front + offsets
+    directions = toward_robot + offsets
     xy = np.column_stack([ux + p.safe_distance * np.cos(directions), uy + p.safe_distance * np.sin(directions)])
     clearance = np.full(n, math.inf) if grid is None else grid.clearance_at(xy)
     out = []
@@ -109,7 +104,7 @@ def rank(user, robot, p, grid=None, exclude=(), facing=None):
             continue
         off = float(offsets[k])
         cost = _angle_cost(abs(off), p) + 0.2 * max(0.0, 0.45 - min(clearance[k], 0.45)) / 0.2
-        if off < 0:  # clockwise from the front: the person's right
+        if off < 0:  # clockwise from the robot's line: the right of a person facing the robot
             cost -= p.right_bonus
         cost += 0.1 * float(np.hypot(xy[k, 0] - robot[0], xy[k, 1] - robot[1]))
         out.append(Candidate(float(xy[k, 0]), float(xy[k, 1]), float(angles.wrap(direction + math.pi)), direction,
@@ -119,7 +114,7 @@ def rank(user, robot, p, grid=None, exclude=(), facing=None):
 
 
 def _angle_cost(offset, p):
-    """Cost of an approach ``offset`` [rad] (absolute) from the user's front."""
+    """Cost of an approach ``offset`` [rad] (absolute) from the line toward the robot."""
     front = p.preferred_offset
     if offset <= 2 * front:  # front-left / front-right best, head-on next
         return 0.5 * abs(offset - front) / front
