@@ -124,15 +124,3 @@ def test_beam_ends_for_free_space():
 def test_pairs_know_their_legs():
     people, members = pair_legs(np.array([[0.0, 0.0], [0.3, 0.0], [3.0, 3.0]]), P, members=True)
     assert members == [(0, 1), (2,)] and people[0] == pytest.approx((0.15, 0.0))
-
-
-def test_a_seated_persons_shins_together_are_a_wide_cluster_not_a_leg():
-    """florence_sim's seated body: one cylinder of radius 0.15 m at the shins (0.27-0.4 m wide seen)."""
-    ranges = render([(0.8, 0.1, 0.15)], walls=[3.0])
-    xy, valid = scan_points(ranges, AMIN, INC, 0.02, 5.6, IDENTITY)
-    legs, wide = find_legs(xy, valid, (0.0, 0.0), P, with_wide=True)
-    assert len(legs) == 0 and len(wide) == 1
-    assert wide[0] == pytest.approx((0.8, 0.1), abs=0.06)
-    assert len(find_legs(xy, valid, (0.0, 0.0), P)) == 0  # legs only, as before
-    pot = render([(2.0, 1.0, 0.25)], walls=[3.0])  # wider than wide_max
-    assert len(find_legs(*scan_points(pot, AMIN, INC, 0.02, 5.6, IDENTITY), (0.0, 0.0), P, with_wide=True)[1]) == 0

@@ -361,18 +361,3 @@ def test_facing_stays_unknown_until_enough_frames_agree():
     for k in range(int(RATE)):  # nothing said
         tracker.update(k / RATE, [kinect(2.0, 1.0, RED, rng)], KINECT)
     assert tracker.published()[0].facing(p) is None
-
-
-def test_a_wide_laser_cluster_keeps_a_confirmed_track_and_starts_none():
-    rng = np.random.default_rng(6)
-    tracker = Tracker()
-    for k in range(int(RATE)):  # a seated person the Kinect confirms from afar
-        tracker.update(k / RATE, [kinect(2.0, 1.0, RED, rng)], KINECT)
-    (track,) = tracker.published()
-    t = 1.0
-    for k in range(4 * 10):  # then only her shins, a wide cluster, for 4 s (the robot came close)
-        t = 1.0 + k / 10
-        tracker.update(t, [Detection(2.0 + rng.normal(0, 0.02), 1.0, LASER, 0.1, free=False, keep_only=True),
-                           Detection(4.0, -1.0, LASER, 0.1, free=False, keep_only=True)], LASER)  # a bin
-    assert [tr.pid for tr in tracker.published()] == [track.pid]
-    assert len(tracker.tracks) == 1  # the bin started no track

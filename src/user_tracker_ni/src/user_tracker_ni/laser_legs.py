@@ -10,11 +10,6 @@ bump on a wall is not a leg). Its centre is the mean of its returns moved back a
 ``max_pair_distance`` pair into a person at their midpoint; a leg with no partner (the other one
 hidden behind it) is a person by itself.
 
-A cluster wider than a leg, up to ``wide_max`` and standing out as a leg does, is a *wide* cluster:
-a seated person's shins and knees together, which the laser is all that sees of her close up (the
-Kinect sees nothing above 0.95 m nearer than 1.1 m). It is not a leg: the tracker lets it keep a
-person already confirmed but start no one (a waste bin or a box looks the same).
-
 Points are placed through the laser's 4x4 pose in the output frame, so the upside-down
 mounting (rolled by pi: the scan runs clockwise) needs no special case.
 """
@@ -35,7 +30,6 @@ class LegParams:
     max_gap_beams: int = 2  # beams in a row without a return that do not split a cluster
     min_width: float = 0.06  # [m] narrowest leg (end to end of its returns): shins are wider, chair legs not
     max_width: float = 0.25  # [m] widest leg (two legs seen as one included)
-    wide_max: float = 0.42  # [m] widest wide cluster (a seated person's shins and knees together)
     edge_jump: float = 0.10  # [m] a leg stands this much in front of its neighbours on both sides
     max_pair_distance: float = 0.50  # [m] two legs of one person are at most this far apart
     max_range: float = 5.0  # [m] returns beyond are not used (sparse, noisy)
@@ -44,9 +38,8 @@ class LegParams:
         for name in ("cluster_distance", "min_width", "max_width", "edge_jump", "max_pair_distance", "max_range"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
-        if self.min_points < 2 or self.min_width >= self.max_width or self.max_gap_beams < 0 \
-                or self.wide_max < self.max_width:
-            raise ValueError("need min_points >= 2, min_width < max_width <= wide_max and max_gap_beams >= 0")
+        if self.min_points < 2 or self.min_width >= self.max_width or self.max_gap_beams < 0:
+            raise ValueError("need min_points >= 2, min_width < max_width and max_gap_beams >= 0")
         return self
 
 
@@ -74,12 +67,11 @@ def beam_ends(ranges, angle_min, angle_increment, range_min, range_max, laser_po
     return local @ np.asarray(laser_pose)[:2, :3].T + np.asarray(laser_pose)[:2, 3], hit
 
 
-def find_legs(xy, valid, sensor_xy, params, with_wide=False):
+def find_legs(xy, valid, sensor_xy, params):
     """Leg centres [L, 2] among the scan points (in scan order); ``sensor_xy`` is the laser's
     position in the same frame (ranges are measured from it). A beam with no valid return inside
     a leg (a dropout) does not split it: clusters are made of the valid returns, broken where
-    more than ``max_gap_beams`` beams in a row have none. ``with_wide``: (legs, the centres [W, 2]
-    of the wide clusters) (module docstring)."""
+    more than ``max_gap_beams`` beams in a row have none."""
     p = params
     xy = np.asarray(xy, dtype=float)
     rng = np.hypot(xy[:, 0] - sensor_xy[0], xy[:, 1] - sensor_xy[1])
@@ -87,7 +79,7 @@ def find_legs(xy, valid, sensor_xy, params, with_wide=False):
     idx = np.flatnonzero(valid)  # beams with a return, in scan order
     n = len(idx)
     if n == 0:
-        return (np.zeros((0, 2)), np.zeros((0, 2))) if with_wide else np.zeros((0, 2))
+        return np.zeros((0, 2))
     pts, r = xy[idx], rng[idx]
     step = np.full(n, np.inf)
     step[1:] = np.hypot(pts[1:, 0] - pts[:-1, 0], pts[1:, 1] - pts[:-1, 1])
@@ -101,7 +93,7 @@ def find_legs(xy, valid, sensor_xy, params, with_wide=False):
     counts = ends - starts + 1
     ok = counts >= p.min_points
     width = np.hypot(pts[ends, 0] - pts[starts, 0], pts[ends, 1] - pts[starts, 1])
-    ok &= (width >= p.min_width) & (width <= p.wide_max)
+    ok &= (width >= p.min_width) & (width <= p.max_width)
     # both neighbouring beams of the scan beyond the cluster (by range) or without a return:
     # it stands out (a bump on a wall does not)
     near = np.minimum(r[starts], r[ends])
@@ -110,6 +102,8 @@ def find_legs(xy, valid, sensor_xy, params, with_wide=False):
     before = np.where(first > 0, full[np.maximum(first - 1, 0)], np.inf)
     after = np.where(last < len(xy) - 1, full[np.minimum(last + 1, len(xy) - 1)], np.inf)
     ok &= (before - near >= p.edge_jump) & (after - near >= p.edge_jump)
+    if not ok.any():
+        return np.zeros((0, 2))
     sums = np.zeros((len(starts), 2))
     np.add.at(sums, label, pts)
     centroid = sums[ok] / counts[ok, None]
@@ -117,9 +111,7 @@ def find_legs(xy, valid, sensor_xy, params, with_wide=False):
     # centre (a circle sampled at even beam angles), so move it back along the ray
     ray = centroid - np.asarray(sensor_xy, dtype=float)
     ray /= np.maximum(np.hypot(ray[:, 0], ray[:, 1]), 1e-9)[:, None]
-    centres = centroid + ray * (CENTRE_SHIFT * width[ok])[:, None]
-    leg = width[ok] <= p.max_width
-    return (centres[leg], centres[~leg]) if with_wide else centres[leg]
+    return centroid + ray * (CENTRE_SHIFT * width[ok])[:, None]
 
 
 def pair_legs(legs, params, members=False, groups=None):

@@ -87,8 +87,6 @@ LASER = ParamTable(
           unit="m", gt=0),
     Param("laser/max_width", float, LegParams.max_width, "widest leg (two legs seen as one included)", unit="m",
           gt=0),
-    Param("laser/wide_max", float, LegParams.wide_max, "widest wide cluster (a seated person's shins and knees "
-          "together): it keeps a confirmed user's track, starts none", unit="m", gt=0),
     Param("laser/edge_jump", float, LegParams.edge_jump, "a leg stands this much in front of its neighbours",
           unit="m", gt=0),
     Param("laser/max_pair_distance", float, LegParams.max_pair_distance, "two legs of one person are nearer",

@@ -109,9 +109,8 @@ class Pipeline:
             return []
         xy, valid = laser_legs.scan_points(ranges, angle_min, angle_increment, range_min, range_max, pose)
         sensor = pose[:2, 3]
-        legs, wide = laser_legs.find_legs(xy, valid, sensor, self.p.legs, with_wide=True)
+        legs = laser_legs.find_legs(xy, valid, sensor, self.p.legs)
         legs = legs[~self._on_structure(legs, fixed_in_map)]  # a wall's end is no leg
-        wide = wide[~self._on_structure(wide, fixed_in_map)]
         leg_free = self.free.in_free_space(legs)
         # a leg in floor seen free lately (walking) and one that stands where beams always end (a
         # door frame's end, with no map) are not one person's
@@ -119,8 +118,6 @@ class Pipeline:
         free = [all(leg_free[k] for k in m) for m in members]
         dets = [Detection(float(x), float(y), LASER, LASER_STD, free=bool(f))
                 for (x, y), f in zip(people, free, strict=True)]
-        # a seated person's shins and knees together: keep her track, start nobody's
-        dets += [Detection(float(x), float(y), LASER, 2 * LASER_STD, free=False, keep_only=True) for x, y in wide]
         self.tracker.update(t, dets, LASER)
         self.counts[LASER] += len(dets)
         ends, hit = laser_legs.beam_ends(ranges, angle_min, angle_increment, range_min, range_max, pose,

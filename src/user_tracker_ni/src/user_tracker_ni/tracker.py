@@ -83,7 +83,6 @@ class Detection:
     free: bool | None = None  # laser only: in floor the laser saw free lately (free_space.py)
     on_structure: bool = False  # on thin static structure of the robot's map (static_map.py)
     facing: float | None = None  # [rad] which way the person faces, in the fixed frame (Kinect, seated people)
-    keep_only: bool = False  # updates a confirmed track only, starts none (laser: a wide cluster, a seated person)
 
 
 @dataclass(frozen=True)
@@ -228,8 +227,6 @@ class Tracker:
         # confirmed tracks choose first: a tentative track (table legs, say) never takes a detection
         # that a confirmed person's track wants
         for group in ([tr for tr in self.tracks if tr.confirmed], [tr for tr in self.tracks if not tr.confirmed]):
-            if group and not group[0].confirmed:
-                free = [j for j in free if not dets[j].keep_only]
             if not group or not free:
                 continue
             cost = self._cost(group, [dets[j] for j in free], gate, t)
@@ -238,7 +235,7 @@ class Tracker:
                 self._apply(group[row], dets[free[col]], t, source)
             free = [free[col] for col in left]
         for j in free:
-            if len(self.tracks) < self.params.max_tracks and not dets[j].keep_only:
+            if len(self.tracks) < self.params.max_tracks:
                 self._start(dets[j], t, source)
         self._maintain(t)
 
