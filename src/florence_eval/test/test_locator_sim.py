@@ -114,8 +114,10 @@ def test_goto_room_reaches_every_room_and_get_robot_pos_room_agrees(stack):
 @pytest.mark.xfail(strict=False, reason=(
     "known defect (issue 20): on the merged stack the robot, seeing the seated user on its way in from the kitchen, "
     "ends 0.52-0.55 m from her but behind her (side 176-179 deg; 3 runs of 3, with and without move_base's people "
-    "layers): approach_me_map's 'front' is the side the robot saw her from, the tracker does not know which way a "
-    "seated person faces"))
+    "layers): approach_me_map's 'front' is the side the robot saw her from. user_tracker_ni now tells which way she "
+    "faces (TrackedUsers.facings); ranked from it, the robot reached her front once in 3 runs here: in this cramped "
+    "corner move_base waited for her on the way round her (min_person_distance) and ended trials 0.34-0.70 m from her "
+    "(issue 20's notes), so approach_me_map does not use it yet"))
 def test_goto_user_sitting_in_the_living_room_from_the_kitchen(stack):
     session, procs = stack
     session.place_robot(hotspot(session, "kitchen"))
