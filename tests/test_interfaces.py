@@ -104,9 +104,10 @@ def test_tracked_users_appended_positions_line_up_with_ids():
     from user_tracker_ni.msg import TrackedUsers
 
     extra = fields(TrackedUsers)[3:]
-    # appended in issue 3 (where), then issue 18 (how fast, when last seen, by which sensors)
+    # appended in issue 3 (where), then issue 18 (how fast, when last seen, by which sensors, which way they face)
     assert extra == [("stamp", "time"), ("frame_id", "string"), ("positions", "geometry_msgs/Point[]"),
-                     ("velocities", "geometry_msgs/Vector3[]"), ("last_seen", "time[]"), ("sensors", "uint8[]")]
+                     ("velocities", "geometry_msgs/Vector3[]"), ("last_seen", "time[]"), ("sensors", "uint8[]"),
+                     ("facings", "float32[]")]
     msg = TrackedUsers(user_ids=[7], user_ids_ni=[1], num_users_tracked=1, positions=[Point(1.0, 0.5, 0.9)])
     assert msg.positions[0].x == 1.0
 
