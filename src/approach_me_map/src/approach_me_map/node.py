@@ -33,6 +33,7 @@ ROS Actions (client): move_base (move_base_msgs/MoveBaseAction).
 ROS Services (client): move_base/make_plan (nav_msgs/GetPlan).
 """
 
+import dataclasses
 import math
 import threading
 
@@ -280,6 +281,17 @@ class ApproachMeMapNode:
             if trial == 1:
                 self._publish_candidates(candidates)
             goal = self._plannable(candidates, robot, beat)
+            for extra in (0.1, 0.2):
+                if goal is not None:
+                    break
+                # none at safe_distance with a path: move_base's people layer keeps plans 0.3 m + the inscribed
+                # radius (0.47 m) from the tracked centre of the very user approached, and that track is
+                # a few cm off (or doubled): a little farther out, the last half metre drives the rest
+                wider = dataclasses.replace(self.params, safe_distance=self.params.safe_distance + extra)
+                goal = self._plannable(rank(user, robot[:2], wider, grid, exclude=tried), robot, beat)
+                if goal is not None:
+                    notes.append(f"trial {trial}: no pose {self.params.safe_distance:.2f} m from the user had a path, "
+                                 f"move_base sent {wider.safe_distance:.2f} m out")
             if goal is None:
                 notes.append(f"trial {trial}: no pose around ({user[0]:.2f}, {user[1]:.2f}) with a path"
                              + ("" if candidates else " (none free on the map)"))
