@@ -55,6 +55,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from florence_common.camera import Camera, stride_for
 
@@ -196,13 +197,11 @@ class DepthMemory:
         band = (pts[:, 2] >= self.min_height) & (pts[:, 2] <= self.max_height)
         return pts[band], np.hypot(local[band, 0], local[band, 2])
 
-    def _near_support(self, points, support):
-        """Which ``points`` [N, 3] have a floor-level return of ``support`` [K, 2] within support_radius."""
-        if support is None or not len(support) or not len(points) or self.support_radius <= 0.0:
+    def _near_support(self, points, tree):
+        """Which ``points`` [N, 3] have a floor-level return within support_radius (``tree``: a cKDTree of
+        the returns, or None: none has)."""
+        if tree is None or not len(points):
             return np.zeros(len(points), dtype=bool)
-        from scipy.spatial import cKDTree
-
-        tree = cKDTree(np.asarray(support, dtype=float)[:, :2])
         d, _ = tree.query(points[:, :2], distance_upper_bound=self.support_radius)
         return np.isfinite(d)
 
@@ -217,13 +216,15 @@ class DepthMemory:
         old_points, old_seen_at, old_from, old_held = self.points, self.seen_at, self.seen_from, self.held
         fresh, fresh_from = self._fresh(frame)
         verdict = classify(old_points, frame, self.blind_range, self.margin, old_from)
-        if support is not None and self.support_radius > 0.0:
-            verdict[(verdict == BLIND) & old_held & ~self._near_support(old_points, support)] = SEEN_THROUGH
+        use_support = support is not None and self.support_radius > 0.0
+        tree = cKDTree(np.asarray(support, dtype=float)[:, :2]) if use_support and len(support) else None
+        if use_support:
+            verdict[(verdict == BLIND) & old_held & ~self._near_support(old_points, tree)] = SEEN_THROUGH
         self.counts = np.bincount(verdict, minlength=len(VERDICTS))
         stamp = float(frame.stamp)
         seen_at = np.where(verdict == BLIND, stamp, old_seen_at)  # blind in front: kept while it is there
         keep = KEPT[verdict] & (stamp - seen_at <= self.memory)
-        fresh_held = self._near_support(fresh, support)
+        fresh_held = self._near_support(fresh, tree)
         kept = self._store(np.vstack([fresh, old_points[keep]]),
                            np.concatenate([np.full(len(fresh), stamp), seen_at[keep]]),
                            np.concatenate([fresh_from, old_from[keep]]), len(fresh),

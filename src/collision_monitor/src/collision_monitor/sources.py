@@ -21,8 +21,9 @@ import numpy as np
 import rospy
 from sensor_msgs.msg import CameraInfo, Image, LaserScan
 
-from collision_monitor.depth_memory import Camera, DepthFrame
+from collision_monitor.depth_memory import DepthFrame
 from collision_monitor.obstacles import DEPTH, SCAN, Scan, camera_info_topic, make_memory
+from florence_common.camera import Camera
 from florence_common_ros.convert import depth_image_metres
 from florence_common_ros.throttle import KindThrottle
 from florence_common_ros.transforms import lookup_matrix
@@ -110,7 +111,7 @@ class ScanSources:
         self.camera_info[name] = msg
 
     def _decode(self, msg, name):
-        """(depth [H, W] float32 [m], NaN for no return; its depth_memory.Camera) of a depth image;
+        """(depth [H, W] float32 [m], NaN for no return; its florence_common.camera.Camera) of a depth image;
         _Unusable naming the kind of problem when it cannot be used."""
         if not msg.header.frame_id.lstrip("/"):
             raise _Unusable("frame", "the image has no frame_id")
