@@ -30,7 +30,8 @@ ROS Publishers:
     tf map->odom when ~fake_localization
 
 ROS Subscribers:
-    cmd_vel (geometry_msgs/Twist): linear.x [m/s], angular.z [rad/s]; NaN/inf ignored (throttled warning)
+    cmd_vel (geometry_msgs/Twist): linear.x [m/s], angular.z [rad/s]; NaN/inf ignored (throttled warning);
+        the newest one takes effect at the next physics step
     tilt_angle (std_msgs/Float64): Kinect tilt [deg], -31..31
 
 ROS Services:
@@ -123,6 +124,12 @@ class SimNode:
         # a bad parameter or a broken world file: run() logs it (file and field) and exits 1
         world, self.sim, self.rtf, self.fake_localization, self.render_always, paused = self._configure()
         self.lock = threading.Condition()
+        # the newest cmd_vel and tilt command, taken by the loop before its next step: a callback
+        # never waits on self.lock, which a loop running behind real time (a loaded machine) holds
+        # nearly always (a lock is not fair: cmd_vel waited 0.3-0.4 s of sim time for it while the
+        # base drove on at the old speed, into a chair the collision monitor had stopped it for)
+        self.inputs_lock = threading.Lock()
+        self.inputs = {}  # {"cmd_vel": (v, w), "tilt": degrees}
         self.paused = paused
         self.pending_steps = 0
         self.achieved_rtf = 0.0
@@ -171,8 +178,8 @@ class SimNode:
         self.pub_keepout.publish(self.msgs.ground_truth_map(keepout))
         self.pub_overhang.publish(self.msgs.ground_truth_map(overhang(laser, keepout)))
 
-        rospy.Subscriber("cmd_vel", Twist, self._on_cmd_vel, queue_size=10)
-        rospy.Subscriber("tilt_angle", Float64, self._on_tilt, queue_size=10)
+        rospy.Subscriber("cmd_vel", Twist, self._on_cmd_vel, queue_size=1, tcp_nodelay=True)
+        rospy.Subscriber("tilt_angle", Float64, self._on_tilt, queue_size=1)
         rospy.Service("~pause", Empty, self._on_pause)
         rospy.Service("~unpause", Empty, self._on_unpause)
         rospy.Service("~step", Step, self._on_step)
@@ -206,17 +213,29 @@ class SimNode:
 
     # ------------------------------------------------------------------ callbacks
     def _on_cmd_vel(self, msg):
-        with self.lock:
-            ok = self.sim.base.command(msg.linear.x, msg.angular.z, self.sim.time)
-        if not ok:
-            self.rospy.logwarn_throttle(5.0, f"{NAME}: ignoring cmd_vel with NaN/inf "
-                                             f"(linear.x={msg.linear.x}, angular.z={msg.angular.z})")
+        v, w = msg.linear.x, msg.angular.z
+        if not (math.isfinite(v) and math.isfinite(w)):
+            self.rospy.logwarn_throttle(5.0, f"{NAME}: ignoring cmd_vel with NaN/inf (linear.x={v}, angular.z={w})")
+            return
+        with self.inputs_lock:
+            self.inputs["cmd_vel"] = (v, w)
 
     def _on_tilt(self, msg):
-        with self.lock:
-            ok = self.sim.set_tilt_degrees(msg.data)
-        if not ok:
+        if not math.isfinite(msg.data):
             self.rospy.logwarn_throttle(5.0, f"{NAME}: ignoring tilt_angle {msg.data}")
+            return
+        with self.inputs_lock:
+            self.inputs["tilt"] = msg.data
+
+    def _take_inputs(self):
+        """Hand the newest commands to the core, stamped with the sim time they take effect at
+        (called by the loop with self.lock held, before a step)."""
+        with self.inputs_lock:
+            inputs, self.inputs = self.inputs, {}
+        if "cmd_vel" in inputs:
+            self.sim.base.command(*inputs["cmd_vel"], self.sim.time)
+        if "tilt" in inputs:
+            self.sim.set_tilt_degrees(inputs["tilt"])
 
     def _on_pause(self, _req):
         from std_srvs.srv import EmptyResponse
@@ -295,6 +314,7 @@ class SimNode:
                     self.lock.wait(0.05)
                     ref_wall, ref_sim = time.monotonic(), self.sim.time
                     continue
+                self._take_inputs()
                 due = self.sim.step()
                 if self.pending_steps:
                     self.pending_steps -= 1
