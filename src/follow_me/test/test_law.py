@@ -50,17 +50,18 @@ def test_limits_of_the_goal_and_of_acceleration():
     out = one_step((0.0, 0.0, 0.0), (5.0, 0.0), limits=Limits(0.3, 0.5, 1.0))
     assert out.v == pytest.approx(0.3)
     assert one_step((0.0, 0.0, 0.0), (0.1, 3.0), limits=Limits(0.3, 0.5, 1.0)).w == pytest.approx(0.5)
-    f = Follower(gains(max_lin_acc=0.8, max_ang_acc=3.0), LIMITS, RATE)
+    f = Follower(gains(k_bearing=2.0, max_lin_acc=0.8, max_ang_acc=3.0), LIMITS, RATE)
     out = f.step(0.0, (0.0, 0.0, 0.0), AttendedPerson(1, (5.0, 1.0)))
     assert out.v == pytest.approx(0.08) and out.w == pytest.approx(0.3)  # 0.8 / 10, 3.0 / 10
     # a person straight behind: turn first, no driving on
     assert one_step((0.0, 0.0, 0.0), (-2.0, 0.01)).v == pytest.approx(0.0, abs=1e-3)
 
 
-def simulate(path, speed, seconds, start=(0.0, 0.0, 0.0), g=None, pause=None, limits=LIMITS):
+def simulate(path, speed, seconds, start=(0.0, 0.0, 0.0), g=None, pause=None, limits=LIMITS, turn_acc=4.0, delay=0.0):
     """Person walking ``path`` at ``speed`` (standing at its end; ``pause``: (t0, t1) standing),
-    robot integrated at 100 Hz with the base's acceleration limits (1 m/s^2, 4 rad/s^2) and the
-    Create's 0.5 m/s per wheel, controlled at 10 Hz. Returns rows (t, robot x, y, yaw, person x, y)."""
+    robot integrated at 100 Hz with the base's acceleration limits (1 m/s^2, ``turn_acc`` 4 rad/s^2:
+    velocity_filter's 1 rad/s^2 makes it 1) and the Create's 0.5 m/s per wheel, controlled at 10 Hz,
+    each command taking effect ``delay`` s late. Returns rows (t, robot x, y, yaw, person x, y)."""
     path = np.asarray(path, dtype=float)
     seg = np.hypot(*np.diff(path, axis=0).T)
     cum = np.concatenate([[0.0], np.cumsum(seg)])
@@ -68,6 +69,7 @@ def simulate(path, speed, seconds, start=(0.0, 0.0, 0.0), g=None, pause=None, li
     robot = list(start)
     v = w = 0.0
     cmd = (0.0, 0.0)
+    queue = [(0.0, 0.0)] * round(delay / 0.01)  # commands on their way to the base
     walked, rows = 0.0, []
     person = None
     dt = 0.01
@@ -86,8 +88,10 @@ def simulate(path, speed, seconds, start=(0.0, 0.0, 0.0), g=None, pause=None, li
             person.update([1], [xy], [vel], t)
             out = f.step(t, tuple(robot), person)
             cmd = (out.v, out.w)
-        v += max(-dt, min(dt, cmd[0] - v))
-        w += max(-4 * dt, min(4 * dt, cmd[1] - w))
+        queue.append(cmd)
+        applied = queue.pop(0)
+        v += max(-dt, min(dt, applied[0] - v))
+        w += max(-turn_acc * dt, min(turn_acc * dt, applied[1] - w))
         half = 0.13  # [m] half the wheel separation: 0.5 m/s per wheel at most
         scale = min(1.0, 0.5 / (abs(v) + half * abs(w) + 1e-12))
         robot[0] += v * scale * math.cos(robot[2]) * dt
@@ -135,6 +139,23 @@ def test_through_a_doorway_it_goes_where_the_person_went():
     straight = simulate(path, 0.5, 20.0, g=gains(path_following=False))
     _, xs_seed = least_gap(straight)
     assert not len(xs_seed) or np.max(xs_seed) > 0.45 - 0.18, "the pure seed law should cut the corner"
+
+
+@pytest.mark.parametrize("delay", [0.0, 0.2, 0.35])
+def test_no_weaving_along_a_corridor_after_a_doorway(delay):
+    """bench/enablers.py's walk (a diagonal, north through a doorway, east along a corridor) at
+    0.5 m/s, the turn rate slewing at velocity_filter's 1 rad/s^2 and commands reaching the base
+    ``delay`` s late (the tracker, the filters, the monitor): the robot settles on the person's line
+    along the corridor. With k_bearing 2 and a 0.5 m lookahead it wove +-0.4 m here for good (a limit
+    cycle of the rate-limited turn; florence_sim showed +-0.3 m swings there too)."""
+    path = [(1.2, 3.8), (2.45, 4.9), (2.45, 6.15), (8.0, 6.15)]
+    rows = simulate(path, 0.5, 26.0, start=(1.2, 2.8, math.pi / 2), turn_acc=1.0, delay=delay)
+    corridor = rows[:, 1] > 4.0  # 1.5 m past the corner, on to where it stops behind the person
+    assert np.any(corridor) and rows[-1, 1] > 6.5, f"the robot ended at {rows[-1, 1:3].round(2)}"
+    deviation = np.max(np.abs(rows[corridor, 2] - 6.15))
+    door = rows[np.argmin(np.abs(rows[:, 2] - 5.5)), 1]  # x where the robot crosses the doorway's wall line
+    assert deviation < 0.05, f"{deviation:.3f} m off the person's line along the corridor"
+    assert abs(door - 2.45) < 0.15, f"through the 0.9 m doorway at x {door:.2f} (its middle 2.45)"
 
 
 def test_a_lost_person_is_searched_for_then_given_up():

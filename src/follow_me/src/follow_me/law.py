@@ -40,7 +40,7 @@ FOLLOWING, SEARCHING = "following", "searching"
 GAINS = ParamTable(
     Param("k_distance", float, 1.2, "forward speed per metre the person is farther than the desired distance (the "
           "seed's k_v)", unit="1/s", ge=0, le=5),
-    Param("k_bearing", float, 2.0, "turn rate per radian of bearing of the point steered to (the seed's k_w)",
+    Param("k_bearing", float, 1.5, "turn rate per radian of bearing of the point steered to (the seed's k_w)",
           unit="1/s", ge=0, le=10),
     Param("k_feedforward", float, 1.0, "share of the person's own speed away from the robot added to the forward "
           "speed (0: the seed's pure spring)", ge=0, le=1.5),
@@ -49,7 +49,7 @@ GAINS = ParamTable(
     Param("max_ang_acc", float, 3.0, "largest change of the turn rate per second", unit="rad/s^2", gt=0, le=10),
     Param("path_following", bool, True, "steer along the person's trail (through doorways, around corners) "
           "instead of straight at them"),
-    Param("lookahead", float, 0.5, "how far ahead on the trail the robot steers to", unit="m", gt=0, le=3),
+    Param("lookahead", float, 0.7, "how far ahead on the trail the robot steers to", unit="m", gt=0, le=3),
     Param("search_speed", float, 0.25, "forward speed while driving to where the person was last seen",
           unit="m/s", gt=0, le=0.5),
     Param("search_turn_rate", float, 0.6, "turn rate while looking for the person", unit="rad/s", gt=0, le=2),
