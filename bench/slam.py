@@ -180,11 +180,12 @@ def navigate(master, saved, common, start):
     from florence_common_ros import convert
 
     rooms = yaml.safe_load(map_file("apartment", "rooms.yaml").read_text())["rooms"]
-    # keepout_map_file empty: the simulator's keep-out map is drawn in the world's frame, not the saved map's
+    # keepout_map_file none: the simulator's keep-out map is drawn in the world's frame, not the saved map's
     # (with it, the bedroom's hotspot lay in a keep-out zone and furniture off the shifted zones looked
-    # unmapped: 2 of 5 hotspots); a user who has just built a map has none for it yet
+    # unmapped: 2 of 5 hotspots); a user who has just built a map has none for it yet. Not "keepout_map_file:=":
+    # roslaunch drops an empty value and the default (the world's) stood (the bedroom refused, cost 254)
     stack = roslaunch(master, "turtlebot_control", "turtlebot_2dnav_control.launch", "sim:=true",
-                      f"map_file:={saved}", "nav_map_topic:=/map", "local_map_topic:=/map", "keepout_map_file:=",
+                      f"map_file:={saved}", "nav_map_topic:=/map", "local_map_topic:=/map", "keepout_map_file:=none",
                       *common)
     legs = []
     try:
