@@ -3,6 +3,7 @@ the spring with REP 103 signs, the goal's and the acceleration limits, keeping t
 walker, the trail through a doorway, backing off, and the search for a lost person."""
 
 import math
+from collections import deque
 
 import numpy as np
 import pytest
@@ -69,7 +70,7 @@ def simulate(path, speed, seconds, start=(0.0, 0.0, 0.0), g=None, pause=None, li
     robot = list(start)
     v = w = 0.0
     cmd = (0.0, 0.0)
-    queue = [(0.0, 0.0)] * round(delay / 0.01)  # commands on their way to the base
+    queue = deque([(0.0, 0.0)] * round(delay / 0.01))  # commands on their way to the base
     walked, rows = 0.0, []
     person = None
     dt = 0.01
@@ -89,7 +90,7 @@ def simulate(path, speed, seconds, start=(0.0, 0.0, 0.0), g=None, pause=None, li
             out = f.step(t, tuple(robot), person)
             cmd = (out.v, out.w)
         queue.append(cmd)
-        applied = queue.pop(0)
+        applied = queue.popleft()
         v += max(-dt, min(dt, applied[0] - v))
         w += max(-turn_acc * dt, min(turn_acc * dt, applied[1] - w))
         half = 0.13  # [m] half the wheel separation: 0.5 m/s per wheel at most

@@ -1,7 +1,6 @@
 """turtlebot_2dnav_control.launch's arguments as roslaunch resolves them (``roslaunch --nodes`` and
 ``--dump-params``: nothing is started)."""
 
-import os
 import subprocess
 
 import pytest
@@ -11,7 +10,7 @@ pytestmark = pytest.mark.ros
 
 def _roslaunch(option, *args):
     out = subprocess.run(["roslaunch", option, "turtlebot_control", "turtlebot_2dnav_control.launch", *args],
-                         capture_output=True, text=True, timeout=120, env=dict(os.environ), check=True)
+                         capture_output=True, text=True, timeout=120, check=True)
     return out.stdout
 
 
