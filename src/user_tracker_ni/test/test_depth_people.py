@@ -155,3 +155,38 @@ def test_clear_view_of_spots_in_front_hidden_beside_and_too_near():
     clear = in_clear_view(depth, CAMERA, scenes.CAMERA_POSE, spots, P)
     # in view; behind the person; too far to the side; too near for the upper body; behind the robot
     assert clear.tolist() == [True, False, False, False, False]
+
+
+@pytest.mark.parametrize("distance", [0.6, 0.8, 1.0])
+@pytest.mark.parametrize("facing_deg", [180, 0, 90])
+def test_a_seated_person_too_near_to_detect_is_sighted_close_up_with_her_shirt(distance, facing_deg):
+    """Nearer than about 1.1 m the image cuts a seated person's upper body off: detect finds nobody,
+    close_sightings finds her near her centre, with her shirt's colours (those learnt from afar)."""
+    from user_tracker_ni.depth_people import close_sightings
+
+    (far,), _ = run(scenes.standing(2.5, 0.0, RED))
+    scene = scenes.sitting(distance, 0.1, RED, facing=math.radians(facing_deg))
+    depth, colour = scenes.render(scene, noise=0.0016)
+    assert detect(depth, CAMERA, scenes.CAMERA_POSE, P, colour)[0] == []
+    (seen,) = close_sightings(depth, CAMERA, scenes.CAMERA_POSE, [(distance, 0.1)], colour, P)
+    assert seen is not None
+    assert (seen.x, seen.y) == pytest.approx((distance, 0.1), abs=0.06)
+    assert reid.distance(seen.signature, far.signature) <= P.close_gate
+
+
+def test_close_sightings_tell_colours_and_keep_off_the_wall_behind():
+    """A blue shirt is not the red one; the wall 0.3 m behind her is not part of her; nothing is
+    sighted where nothing stands, nor without a colour image; a standing person shows trousers there."""
+    from user_tracker_ni.depth_people import close_sightings
+
+    (far,), _ = run(scenes.standing(2.5, 0.0, RED))
+    wall = [(1.2, -2.0, 1.2, 2.0, WALL)]
+    depth, colour = scenes.render(scenes.sitting(0.9, 0.0, BLUE), walls=wall, noise=0.0016)
+    blue, empty = close_sightings(depth, CAMERA, scenes.CAMERA_POSE, [(0.9, 0.0), (0.8, -0.6)], colour, P)
+    assert blue is not None and reid.distance(blue.signature, far.signature) > P.close_gate
+    assert blue.x == pytest.approx(0.9, abs=0.06)
+    assert empty is None
+    assert close_sightings(depth, CAMERA, scenes.CAMERA_POSE, [(0.9, 0.0)], None, P) == [None]
+    depth, colour = scenes.render(scenes.standing(1.0, 0.0, RED), noise=0.0016)
+    (legs,) = close_sightings(depth, CAMERA, scenes.CAMERA_POSE, [(1.0, 0.0)], colour, P)
+    assert legs is None or reid.distance(legs.signature, far.signature) > P.close_gate

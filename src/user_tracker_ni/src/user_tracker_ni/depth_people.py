@@ -46,6 +46,10 @@ detector therefore looks for what every person in view shows and furniture does 
    ``facing_min_offset`` says nothing (a seat or a table hides the legs, or they are tucked
    under): ``facing`` stays None. A standing person's legs are under the torso: no facing.
 
+6. Close up, where none of this can work (nearer than about 1.1 m nothing above ``upper_min`` is in
+   view), :func:`close_sightings` reports what stands where a tracked person is expected, with its
+   colours, for the tracker to keep that person by (pipeline.py): never a new person.
+
 :func:`detect` returns the people and, for diagnostics, the number of clusters rejected for
 each reason.
 """
@@ -92,6 +96,11 @@ class DepthParams:
     legs_max: float = 0.42  # [m]
     facing_reach: float = 0.6  # [m] ... looked for this near the upper body's centre
     facing_min_offset: float = 0.08  # [m] shins this far in front of the torso tell the facing
+    close_range: float = 1.4  # [m] a tracked person nearer the camera than this is looked for close up (0: never)
+    close_min: float = 0.55  # [m] lowest point of a body seen close up (close_sightings; up to upper_min)
+    close_radius: float = 0.35  # [m] how near the expected place its points lie
+    close_depth: float = 0.3  # [m] and how far behind the nearest of them along the line of sight
+    close_gate: float = 0.4  # largest colour difference (Bhattacharyya) of what is seen there and the person
 
     def validate(self):
         for name in ("min_range", "max_range", "cell", "min_width", "max_width", "max_depth", "body_reach",
@@ -106,6 +115,10 @@ class DepthParams:
                 and 0 < self.facing_min_offset < self.facing_reach):
             raise ValueError("need 0 <= legs_min < legs_max <= hips_max, facing_reach > 0 and "
                              "0 < facing_min_offset < facing_reach")
+        if self.close_range < 0 or not (0 < self.close_min < self.upper_min and self.close_radius > 0
+                                        and self.close_depth > 0 and 0 < self.close_gate <= 1):
+            raise ValueError("need close_range >= 0, 0 < close_min < upper_min, close_radius > 0, close_depth > 0 "
+                             "and 0 < close_gate <= 1")
         if self.target_width < 16 or self.min_points < 3:
             raise ValueError("target_width must be >= 16 and min_points >= 3")
         if not (0 <= self.fill_min < self.fill_max <= self.upper_min and 0 <= self.min_fill <= 1
@@ -135,18 +148,8 @@ def detect(depth, camera, camera_pose, params, rgb=None):
     [H', W', 3] uint8 colour image registered to the depth image (resized if its size differs).
     rejected: Counter of the reasons clusters were not people."""
     p = params
-    depth = np.asarray(depth)
-    if depth.shape != (camera.height, camera.width):
-        raise ValueError(f"depth image {depth.shape[1]}x{depth.shape[0]} does not match its camera_info "
-                         f"{camera.width}x{camera.height}")
+    d, rays, R, t, vv, uu, pts = _cloud(depth, camera, camera_pose, p)
     stride = stride_for(camera.width, p.target_width)
-    d = depth[::stride, ::stride].astype(np.float32)
-    rays = camera.rays(stride, np.float32)
-    with np.errstate(invalid="ignore"):
-        valid = np.isfinite(d) & (d > p.min_range) & (d < p.max_range)
-    R, t = np.asarray(camera_pose)[:3, :3], np.asarray(camera_pose)[:3, 3]
-    vv, uu = np.nonzero(valid)
-    pts = (rays[vv, uu] * d[vv, uu, None]) @ R.T.astype(np.float32) + t.astype(np.float32)
     z = pts[:, 2]
     upper = (z >= p.upper_min) & (z <= p.max_height)
     hips = (z >= p.hips_min) & (z <= p.hips_max)
@@ -172,7 +175,7 @@ def detect(depth, camera, camera_pose, params, rgb=None):
     rng = np.hypot(rel[:, 0], rel[:, 1])
     bearing = np.arctan2(rel[:, 1], rel[:, 0])
     w_img = d.shape[1]
-    colour = None if rgb is None else _registered(rgb, depth.shape, stride, d.shape)
+    colour = None if rgb is None else _registered(rgb, np.shape(depth), stride, d.shape)
     people = []
     for label in range(1, n + 1):
         mine = point_label == label
@@ -225,6 +228,64 @@ def detect(depth, camera, camera_pose, params, rgb=None):
     return people, rejected
 
 
+@dataclass(frozen=True)
+class CloseSighting:
+    """A body seen close up where a person was expected (:func:`close_sightings`)."""
+
+    x: float  # [m] centre in the base frame
+    y: float  # [m]
+    width: float  # [m] across the line of sight
+    points: int
+    signature: np.ndarray  # colour signature (reid.signature) of the points
+
+
+def close_sightings(depth, camera, camera_pose, points, rgb, params):
+    """What the Kinect shows, close up, where people are expected: for each of ``points`` [N, 2]
+    (base frame: a tracked person's predicted place) a :class:`CloseSighting` or None.
+
+    Nearer than about 1.1 m the image shows nothing above 0.95 m (module docstring), so
+    :func:`detect` cannot see a person there; a seated one also shows the laser no legs (their
+    shins are one wide block). Below the upper-body band a person is indistinguishable from
+    furniture by shape, so this only looks where a tracked person is expected and reports what is
+    there with its colours, for the caller to compare with that person's: the points between
+    ``close_min`` and ``upper_min`` within ``close_radius`` of the place, keeping the near side
+    (within ``close_depth`` of the nearest of them along the line of sight: not the wall behind),
+    at least ``min_points`` of them and ``min_width``..``max_width`` wide. The centre is their
+    mean moved back along the line of sight as :func:`detect` does. None without a colour image
+    (the colours are the only check of who it is) or where too little is seen."""
+    p = params
+    pts_in = np.asarray(points, float).reshape(-1, 2)
+    out = [None] * len(pts_in)
+    if rgb is None or len(pts_in) == 0:
+        return out
+    d, _, _, t, vv, uu, pts = _cloud(depth, camera, camera_pose, p)
+    band = (pts[:, 2] >= p.close_min) & (pts[:, 2] < p.upper_min)
+    if np.count_nonzero(band) < p.min_points:
+        return out
+    colour = _registered(rgb, np.shape(depth), stride_for(camera.width, p.target_width), d.shape)
+    pts, vv, uu = pts[band], vv[band], uu[band]
+    rel = pts[:, :2] - t[:2]
+    rng = np.hypot(rel[:, 0], rel[:, 1])
+    bearing = np.arctan2(rel[:, 1], rel[:, 0])
+    for k, (x, y) in enumerate(pts_in):
+        mine = np.hypot(pts[:, 0] - x, pts[:, 1] - y) <= p.close_radius
+        if np.count_nonzero(mine) < p.min_points:
+            continue
+        mine &= rng <= np.percentile(rng[mine], 2) + p.close_depth
+        count = int(np.count_nonzero(mine))
+        if count < p.min_points:
+            continue
+        width = _lateral_width(bearing[mine], float(rng[mine].mean()))
+        if not p.min_width <= width <= p.max_width:
+            continue
+        centroid = pts[mine, :2].mean(axis=0)
+        ray = (centroid - t[:2]) / max(float(np.hypot(*(centroid - t[:2]))), 1e-6)
+        centre = centroid + ray * CENTRE_SHIFT * width
+        out[k] = CloseSighting(float(centre[0]), float(centre[1]), width, count,
+                               reid.signature(colour[vv[mine], uu[mine]]))
+    return out
+
+
 def in_clear_view(depth, camera, camera_pose, points, params, height=1.1, margin=0.12, clearance=0.3,
                   beyond=-0.5, any_height=False):
     """Boolean [N]: the camera would see the upper body of a person standing or sitting at each of
@@ -261,6 +322,26 @@ def in_clear_view(depth, camera, camera_pose, points, params, height=1.1, margin
             nearer = np.count_nonzero(patch < z[k] - clearance)
         out[k] = nearer <= patch.size // 4
     return out
+
+
+def _cloud(depth, camera, camera_pose, p):
+    """The decimated depth image back-projected: (d [h, w] m, rays [h, w, 3] at unit optical
+    depth, R, t (the optical frame's rotation and position in the base frame), vv, uu (pixel rows
+    and columns of the valid readings), points [N, 3] in the base frame). ValueError for an image
+    that does not match its camera."""
+    depth = np.asarray(depth)
+    if depth.shape != (camera.height, camera.width):
+        raise ValueError(f"depth image {depth.shape[1]}x{depth.shape[0]} does not match its camera_info "
+                         f"{camera.width}x{camera.height}")
+    stride = stride_for(camera.width, p.target_width)
+    d = depth[::stride, ::stride].astype(np.float32)
+    rays = camera.rays(stride, np.float32)
+    with np.errstate(invalid="ignore"):
+        valid = np.isfinite(d) & (d > p.min_range) & (d < p.max_range)
+    R, t = np.asarray(camera_pose)[:3, :3], np.asarray(camera_pose)[:3, 3]
+    vv, uu = np.nonzero(valid)
+    pts = (rays[vv, uu] * d[vv, uu, None]) @ R.T.astype(np.float32) + t.astype(np.float32)
+    return d, rays, R, t, vv, uu, pts
 
 
 def _fill_below(d, rays, R, t, bearings, distance, p):

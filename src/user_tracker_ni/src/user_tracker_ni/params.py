@@ -75,6 +75,16 @@ KINECT = ParamTable(
           unit="m", gt=0),
     Param("kinect/facing_min_offset", float, DepthParams.facing_min_offset,
           "shins this far in front of the torso tell which way a seated person faces", unit="m", gt=0),
+    Param("kinect/close_range", float, DepthParams.close_range,
+          "a tracked person this near the camera and not detected is looked for close up, below the upper-body "
+          "band, and kept when the colours there are theirs (0: never)", unit="m", ge=0),
+    Param("kinect/close_min", float, DepthParams.close_min, "lowest point of a body seen close up", unit="m", gt=0),
+    Param("kinect/close_radius", float, DepthParams.close_radius,
+          "how near the person's expected place the points seen close up lie", unit="m", gt=0),
+    Param("kinect/close_depth", float, DepthParams.close_depth,
+          "how far behind the nearest of them along the line of sight (not the wall behind)", unit="m", gt=0),
+    Param("kinect/close_gate", float, DepthParams.close_gate,
+          "largest colour difference (Bhattacharyya) of what is seen close up and the person", gt=0, le=1),
 )
 
 LASER = ParamTable(

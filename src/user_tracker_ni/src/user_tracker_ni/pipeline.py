@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from florence_common import angles
-from user_tracker_ni import depth_people, free_space, laser_legs
+from user_tracker_ni import depth_people, free_space, laser_legs, reid
 from user_tracker_ni.tracker import KINECT, LASER, Detection, Tracker
 
 KINECT_STD, LASER_STD = 0.08, 0.05  # [m] position noise of a detection of each sensor
@@ -78,8 +78,38 @@ class Pipeline:
                 for (x, y), p, o in zip(xy, people, on, strict=True)]
         self.tracker.update(t, dets, KINECT)
         self.counts[KINECT] += len(dets)
+        self._look_close(t, depth, camera, camera_in_base, base, rgb)
         self._note_clear_view(t, depth, camera, camera_in_base, base)
         return dets
+
+    def _look_close(self, t, depth, camera, camera_in_base, base_in_fixed, rgb):
+        """Keep the confirmed people this frame did not detect and who stand within ``close_range``
+        of the camera, where the image cuts their upper body off, by what it shows there
+        (depth_people.close_sightings) when its colours are theirs (within ``close_gate`` of the
+        signature they were identified by): a seated person close to the robot shows neither the
+        Kinect's detector nor the laser's anything it can tell from furniture."""
+        p = self.p.depth
+        if p.close_range <= 0 or rgb is None:
+            return
+        tracks = [tr for tr in self.tracker.tracks
+                  if tr.confirmed and tr.pid is not None and tr.last_kinect != t and tr.signature is not None
+                  and tr.signatures >= self.tracker.params.appearance_after]
+        if not tracks:
+            return
+        inverse = np.linalg.inv(base_in_fixed)
+        in_base = np.array([tr.position for tr in tracks]) @ inverse[:2, :2].T + inverse[:2, 3]
+        camera_xy = np.asarray(camera_in_base, float)[:2, 3]
+        near = np.hypot(*(in_base - camera_xy).T) <= p.close_range
+        if not near.any():
+            return
+        chosen = [tr for tr, n in zip(tracks, near, strict=True) if n]
+        sightings = depth_people.close_sightings(depth, camera, camera_in_base, in_base[near], rgb, p)
+        for track, seen in zip(chosen, sightings, strict=True):
+            if seen is None or reid.distance(track.signature, seen.signature) > p.close_gate:
+                continue
+            x, y = base_in_fixed[:2, :2] @ (seen.x, seen.y) + base_in_fixed[:2, 3]
+            self.tracker.hold(t, track, Detection(float(x), float(y), KINECT, KINECT_STD))
+            self.counts["close up"] += 1
 
     def _note_clear_view(self, t, depth, camera, camera_in_base, base_in_fixed):
         """Tell the tracker which confirmed tracks the Kinect had in clear view in this frame."""

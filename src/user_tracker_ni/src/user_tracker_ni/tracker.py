@@ -239,6 +239,24 @@ class Tracker:
                 self._start(dets[j], t, source)
         self._maintain(t)
 
+    def hold(self, t, track, det):
+        """Update ``track`` (of self.tracks) with a detection the caller made for it alone at time
+        ``t``, after :meth:`update` of that reading: the Kinect's close sighting of that person
+        (pipeline.py). It keeps the track and its place; its colours are not learnt (the
+        sighting's band is not the shirt's band the signature was learnt from) and it counts
+        toward no confirmation."""
+        if not (np.isfinite(det.x) and np.isfinite(det.y)) or det.on_structure:
+            return
+        track.filter.predict(t)
+        track.filter.update((det.x, det.y), det.std)
+        track.last_update = t
+        track.updated = (track.position, track.velocity)
+        track.sources.add(det.source)
+        if det.source == KINECT:
+            track.last_kinect = t
+        else:
+            track.last_laser = t
+
     def in_clear_view(self, t, tracks, in_view=None):
         """After the Kinect frame of time ``t``: ``tracks`` (of self.tracks) were in its clear view
         (in the image, in range, nothing in front). Those it did not detect start, or go on,
