@@ -181,3 +181,21 @@ def test_align_times_out():
     a = Align(AlignParams(timeout=1.0), 0.0)
     step = a.update(1.5, (robot.x, robot.y, robot.yaw), (0.0, 0.0), (0.0, 0.0))
     assert step.done and not step.ok and "longer than 1 s" in step.why
+
+
+def test_a_stall_is_standing_still_near_the_pose_for_the_timeout():
+    from approach_me_map.poses import Stall
+
+    stall = Stall(radius=0.3, timeout=5.0)
+    goal = (1.0, 0.0)
+    # driving toward the pose: never a stall
+    assert not any(stall.update(0.1 * k, (0.05 * k, 0.0, 0.0), goal) for k in range(20))
+    # still 0.17 m short of it (a turn refused): not yet at 4.9 s, a stall at 5 s
+    assert not any(stall.update(2.0 + 0.1 * k, (0.83, 0.0, 0.01 * (k % 2)), goal) for k in range(50))
+    assert stall.update(7.0, (0.83, 0.0, 0.0), goal)
+    # turning on the spot is progress: the wait starts over
+    assert not stall.update(7.1, (0.83, 0.0, 0.3), goal)
+    assert not stall.update(12.0, (0.83, 0.0, 0.3), goal) and stall.update(12.1, (0.83, 0.0, 0.3), goal)
+    # standing still far from the pose (waiting for a person in a doorway) is move_base's business
+    far = Stall(radius=0.3, timeout=5.0)
+    assert not any(far.update(0.1 * k, (0.0, 0.0, 0.0), goal) for k in range(200))

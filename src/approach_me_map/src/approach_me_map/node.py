@@ -49,7 +49,7 @@ from nav_msgs.srv import GetPlan
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import String
 
-from approach_me_map.poses import Align, AlignParams, ApproachParams, ObstacleGrid, rank
+from approach_me_map.poses import Align, AlignParams, ApproachParams, ObstacleGrid, Stall, rank
 from detect_users.msg import DetectedUser
 from florence_common import pose as pose2d
 from florence_common.params import FRAME, Param, ParamTable
@@ -74,6 +74,13 @@ PARAMS = ParamTable(
     Param("min_clearance", float, _A.min_clearance, "a pose this near walls or furniture of the map is not "
           "used", unit="m", ge=0),
     Param("goal_timeout", float, 120.0, "longest move_base trial", unit="s", gt=0),
+    Param("reaim_distance", float, 0.1, "the tracked user this far from where the pose was put around her: the "
+          "move_base goal moves with her (same place around her)", unit="m", gt=0),
+    Param("reaim_period", float, 2.0, "at most one such move in this long", unit="s", ge=0),
+    Param("stall_timeout", float, 5.0, "move_base's robot standing still this long within ~stall_radius of the "
+          "pose: its goal ends and the last half metre starts from there", unit="s", gt=0),
+    Param("stall_radius", float, 0.6, "how near the pose a stall counts (move_base's xy_goal_tolerance is 0.25 m)",
+          unit="m", gt=0),
     Param("align", bool, True, "after move_base, turn to the user and drive to safe_distance (the last half "
           "metre); false: move_base's tolerance only"),
     Param("align_speed", float, _L.max_speed, "fastest straight move of the last half metre", unit="m/s", gt=0,
@@ -323,10 +330,17 @@ class ApproachMeMapNode:
         """One trial: move_base to ``goal``, then the last half metre. (ok, what happened)."""
         p = self.p
         done = threading.Event()
-        self.client.send_goal(MoveBaseGoal(target_pose=convert.pose_stamped(goal.x, goal.y, goal.yaw, p.map_frame,
-                                                                            rospy.Time.now())),
-                              done_cb=lambda *_: done.set())
-        started = rospy.get_time()
+        aim, target = user, (goal.x, goal.y)  # the user's place the pose was put around, and the pose
+
+        def send():
+            done.clear()
+            self.client.send_goal(MoveBaseGoal(target_pose=convert.pose_stamped(*target, goal.yaw, p.map_frame,
+                                                                                rospy.Time.now())),
+                                  done_cb=lambda *_: done.set())
+            return rospy.get_time()
+
+        started = sent = send()
+        stall, stalled, moves = Stall(p.stall_radius, p.stall_timeout), "", 0
         try:
             while not done.wait(0.1):
                 self._check()
@@ -336,9 +350,24 @@ class ApproachMeMapNode:
                 if math.hypot(now_user[0] - user[0], now_user[1] - user[1]) > p.retarget_distance:
                     self.client.cancel_goal()
                     return False, f"the user moved to ({now_user[0]:.2f}, {now_user[1]:.2f})"
+                shift = (now_user[0] - aim[0], now_user[1] - aim[1])
+                if math.hypot(*shift) > p.reaim_distance and rospy.get_time() - sent > p.reaim_period:
+                    # the tracker places her better as the robot comes closer (amcl's error, a far
+                    # sighting): the pose keeps its place around her, so it stays safe_distance away
+                    aim, target = now_user, (target[0] + shift[0], target[1] + shift[1])
+                    sent, moves = send(), moves + 1
+                    rospy.loginfo(LOG + "the user is %.2f m from where the pose was put: pose moved to (%.2f, %.2f)",
+                                  math.hypot(*shift), *target)
                 if rospy.get_time() - started > p.goal_timeout:
                     self.client.cancel_goal()
                     return False, f"move_base took longer than {p.goal_timeout:.0f} s"
+                robot, _ = self._robot(p.map_frame)
+                if robot is not None and stall.update(rospy.get_time(), robot, target):
+                    self.client.cancel_goal()
+                    stalled = (f"move_base stood still {math.hypot(robot[0] - target[0], robot[1] - target[1]):.2f} "
+                               f"m from the pose for {p.stall_timeout:.0f} s; ")
+                    rospy.loginfo(LOG + stalled + "the last half metre from there")
+                    break
         except Cancelled:
             self.client.cancel_goal()
             raise
@@ -349,11 +378,13 @@ class ApproachMeMapNode:
             now_user = self.user
         near = robot is not None and math.hypot(robot[0] - now_user[0], robot[1] - now_user[1]) \
             < p.safe_distance + 0.6
-        if state != GoalStatus.SUCCEEDED and not near:
+        if state != GoalStatus.SUCCEEDED and not near and not stalled:
             return False, f"move_base {state_name(state)}: {text}"
+        moved = f"the pose moved {moves} time(s) with her; " if moves else ""
         if not p.align:
-            return True, f"move_base {state_name(state)}"
-        return self._align(beat)
+            return True, moved + stalled + f"move_base {state_name(state)}"
+        ok, why = self._align(beat)
+        return ok, moved + stalled + why
 
     def _align(self, beat):
         """The last half metre in the odometry frame."""

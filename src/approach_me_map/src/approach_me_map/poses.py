@@ -24,6 +24,12 @@ from.
 without a path are skipped), sends the first with a path to move_base, and after a failure tries
 the next one at least ``trial_separation`` away in angle: at most 3 trials (seed 3.10).
 
+**A stalled trial** (:class:`Stall`). Near a seated person's body move_base may stop short of the
+pose and never finish: its local planner refuses to turn the footprint's nose into her costs
+(the last 0.2-0.4 rad of yaw) and waits until the trial's timeout. A robot that has not moved
+for ``stall_timeout`` within ``stall_radius`` of the pose ends move_base's goal and does the
+last half metre from there.
+
 **The last half metre** (:class:`Align`). move_base stops within its xy_goal_tolerance (0.25 m)
 of the goal, too coarse for 0.5 m from a person. From where it stopped, the robot turns on the
 spot to face the user, drives straight toward or away from them to ``safe_distance`` (slowly;
@@ -124,6 +130,28 @@ def _angle_cost(offset, p):
 
 
 # --- the last half metre -------------------------------------------------------------------------------------------
+class Stall:
+    """Whether a robot driven by move_base stopped near its goal (module docstring): ``radius`` [m]
+    around the goal, still (within ``moved`` [m] and ``turned`` [rad] of where it stood) for
+    ``timeout`` [s]."""
+
+    def __init__(self, radius, timeout, moved=0.05, turned=0.1):
+        self.radius, self.timeout, self.moved, self.turned = float(radius), float(timeout), moved, turned
+        self.anchor = None  # (x, y, yaw, t): where and since when the robot stands
+
+    def update(self, t, robot, goal):
+        """``robot`` (x, y, yaw) and ``goal`` (x, y) at time ``t`` [s]: True once stalled."""
+        x, y, yaw = robot
+        if math.hypot(x - goal[0], y - goal[1]) > self.radius:
+            self.anchor = None
+            return False
+        a = self.anchor
+        if a is None or math.hypot(x - a[0], y - a[1]) > self.moved or abs(angles.diff(yaw, a[2])) > self.turned:
+            self.anchor = (x, y, yaw, t)
+            return False
+        return t - a[3] >= self.timeout
+
+
 @dataclass(frozen=True)
 class AlignParams:
     safe_distance: float = 0.5  # [m]
