@@ -7,7 +7,11 @@
    frames): 11-bit to metres on the depth grid; registration to the colour camera; a whole
    frame with points (registration, the packed cloud, the depth image and the cloud serialised
    as rospy serialises them): p50 / p99 [ms] of CPU time.
-3. The node on fakenect's libfreenect against a private master, with subscribers (no
+3. fakenect's own pace: a consumer that only counts the frames (a process of its own on the
+   same dump), against the rate the dump was recorded at: the most any driver can get from this
+   replay (fakenect sleeps the recorded gap less the time spent outside its call, so reading each
+   file and handing it over adds to every frame's period).
+4. The node on fakenect's libfreenect against a private master, with subscribers (no
    deserialisation: rospy.AnyMsg) on depth/image and rgb/image_color, and with rgb/points
    ("points on") or without ("points off"): frames per second received, CPU of the node and of
    its libfreenect worker (from /proc), the node's own conversion p50 / p99 (/diagnostics).
@@ -22,6 +26,7 @@ import argparse
 import contextlib
 import io
 import json
+import math
 import os
 import sys
 import tempfile
@@ -148,6 +153,48 @@ def read_diagnostics(rospy, name, timeout=10.0):
     return {}
 
 
+def probe_source(folder, seconds):
+    """In a process of its own (FAKENECT_PATH set): fakenect's own pace with a consumer that does
+    nothing (each frame only counted), i.e. the rate any driver on this replay can reach at most.
+    Prints JSON {kind: frames a second}."""
+    from openni_camera import freenect
+
+    fn = freenect.Freenect(FAKENECT)
+    fn.select(freenect.DEVICE_CAMERA)
+    fn.open(0)
+    counts = {"depth": 0, "video": 0}
+
+    def counter(kind):
+        def on_frame(_pointer, _size, _timestamp):
+            counts[kind] += 1
+        return on_frame
+
+    fn.start_streams(on_depth=counter("depth"), on_video=counter("video"))
+    while counts["depth"] < 5:  # fakenect's first frames come without its pacing
+        fn.process_events(0.1)
+    start, first = time.monotonic(), dict(counts)
+    while time.monotonic() - start < seconds:
+        fn.process_events(0.1)
+    wall = time.monotonic() - start
+    fn.stop_streams()
+    fn.close()
+    print(json.dumps({k: (counts[k] - first[k]) / wall for k in counts}))
+
+
+def bench_source(folder, seconds):
+    """fakenect's delivery rate with a consumer that does nothing (probe_source) and the dump's own."""
+    import subprocess
+
+    out = subprocess.run([sys.executable, __file__, "--probe-source", str(folder), "--seconds", str(seconds)],
+                         env={**os.environ, "FAKENECT_PATH": str(folder)}, capture_output=True, text=True,
+                         check=True, timeout=seconds + 60)
+    rates = json.loads(out.stdout.strip().splitlines()[-1])
+    names = [n for n in (folder / fakenect_dump.INDEX).read_text().split() if n.startswith("d-")]
+    times = [float(fakenect_dump.NAME.match(n).group(2)) for n in names]
+    recorded = (len(times) - 1) / (times[-1] - times[0]) if len(times) > 1 and times[-1] > times[0] else math.nan
+    return {"recorded_depth_fps": recorded, "delivered_fps_bare_consumer": rates}
+
+
 def bench_node(folder, seconds):
     import rospy
 
@@ -207,7 +254,11 @@ def main():
     parser.add_argument("--seconds", type=float, default=10.0, help="measuring time per mode [s]")
     parser.add_argument("--repeats", type=int, default=5, help="passes over the 30 frames offline")
     parser.add_argument("--dump", help="use this dump instead of recording one (640x480 with camera_info YAMLs)")
+    parser.add_argument("--probe-source", metavar="DUMP", help=argparse.SUPPRESS)  # bench_source's child
     args = parser.parse_args()
+    if args.probe_source:
+        probe_source(Path(args.probe_source), args.seconds)
+        return
     load_before = os.getloadavg()[0]
     with tempfile.TemporaryDirectory(prefix="kinect-bench-") as tmp:
         folder = Path(args.dump) if args.dump else Path(tmp) / "scene"
@@ -217,12 +268,16 @@ def main():
         conversion, reg, frame = bench_conversion(folder, args.repeats)
         RESULTS.parent.mkdir(parents=True, exist_ok=True)
         picture(reg, frame, RESULTS.with_suffix(".png"))
+        source = bench_source(folder, args.seconds)
         node = bench_node(folder, args.seconds)
     load = {"loadavg_1min_before": load_before, "loadavg_1min_after": os.getloadavg()[0], "cpus": os.cpu_count()}
-    results = {"conversion_offline": conversion, "node": node, "machine": load,
+    results = {"conversion_offline": conversion, "source": source, "node": node, "machine": load,
                "targets": {"fps_points_on": kinect.RATE, "cpu_total_share_points_on": 0.5}}
     for name, r in conversion.items():
         print(f"offline {name}: p50 {r['p50_ms']:.2f} ms, p99 {r['p99_ms']:.2f} ms CPU per frame")
+    print(f"fakenect: the dump recorded at {source['recorded_depth_fps']:.2f} Hz; delivered to a consumer that does "
+          "nothing: " + ", ".join(f"{k} {v:.2f} Hz" for k, v in source["delivered_fps_bare_consumer"].items())
+          + " (the most any driver on this replay gets)")
     for mode, r in node.items():
         fps = ", ".join(f"{t} {v:.1f}" for t, v in r["fps"].items())
         print(f"{mode}: {fps} Hz; CPU node {100 * r['cpu_node_share']:.1f} % + worker "
