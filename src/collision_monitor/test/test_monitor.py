@@ -180,3 +180,51 @@ def test_padding_makes_a_points_clearance_count_less():
     d = decide(seat, 0.3, 0.0, CFG, padding=np.full(len(seat), 0.08))
     assert d.clearance == pytest.approx(0.40 - 0.18 - 0.08) and d.state == SLOW
     assert decide(wall(0.30), 0.1, 0.0, CFG, padding=np.full(len(wall(0.30)), 0.08)).state == STOP
+
+
+def jamb(x, y, depth=0.12, spacing=0.01):
+    """A door jamb's end face beside the robot: points from (x, y) to (x + depth, y), and the wall going on away
+    from the robot (y more negative when y < 0)."""
+    face = np.column_stack([np.arange(x, x + depth + 1e-9, spacing), np.full(round(depth / spacing) + 1, y)])
+    side = np.sign(y) if y else 1.0
+    wall_pts = np.column_stack([np.full(30, x), y + side * np.arange(1, 31) * spacing])
+    return np.vstack([face, wall_pts])
+
+
+def test_steer_clear_leaves_a_door_jamb_the_straight_command_would_graze():
+    """follow_me's demo case (26 Nov): in a doorway, a jamb 0.20 m to the right-front, the robot already inside
+    its stop zone, the law steering straight on past it: the straight command is stopped, and the law would
+    ask for it for ever. Steered, the robot turns away on the spot, then arcs past, and is through the door
+    and on toward the goal beyond it, never nearer to anything than at the start."""
+    from collision_monitor.monitor import steer_clear
+
+    pts = jamb(0.10, -0.20)
+    straight = decide(pts, 0.4, 0.0, CFG)
+    assert straight.state in (STOP, SLOW) and straight.v < 0.05, straight  # stopped, or at a crawl
+    x, y, yaw, dt = 0.0, 0.0, 0.0, 0.1
+    goal = (1.2, -0.45)  # beyond the wall, to the right
+    start = least = clearances(pts, np.zeros((1, 3)), CFG).min()
+    for _ in range(150):
+        c, s = math.cos(yaw), math.sin(yaw)
+        local = np.column_stack([c * (pts[:, 0] - x) + s * (pts[:, 1] - y), -s * (pts[:, 0] - x) + c * (pts[:, 1] - y)])
+        gx, gy = c * (goal[0] - x) + s * (goal[1] - y), -s * (goal[0] - x) + c * (goal[1] - y)
+        if math.hypot(gx, gy) < 0.1:
+            break
+        d = steer_clear(local, 0.3, max(-1.5, min(1.5, 1.5 * math.atan2(gy, gx))), CFG, max_w=1.5)
+        x, y, yaw = x + d.v * dt * math.cos(yaw + d.w * dt / 2), y + d.v * dt * math.sin(yaw + d.w * dt / 2), \
+            yaw + d.w * dt
+        least = min(least, clearances(pts, np.array([[x, y, yaw]]), CFG).min())
+    assert math.hypot(goal[0] - x, goal[1] - y) < 0.1, (x, y, yaw)
+    assert least >= start - 1e-3, (least, start)
+
+
+def test_steer_clear_leaves_a_passing_command_and_a_blocked_one_as_they_are():
+    from collision_monitor.monitor import steer_clear
+
+    free = steer_clear(np.zeros((0, 2)), 0.3, 0.2, CFG, max_w=1.5)
+    assert (free.state, free.v, free.w) == (CLEAR, 0.3, 0.2)
+    ahead = wall(0.25, -2.0, 2.0)  # a wall right ahead: no arc helps, the command is judged as it is
+    assert steer_clear(ahead, 0.3, 0.0, CFG, max_w=1.5) == decide(ahead, 0.3, 0.0, CFG)
+    pts = jamb(0.10, -0.20)  # no arc within +-0.1 rad/s passes: a turn on the spot away from the jamb, as slow
+    capped = steer_clear(pts, 0.4, 0.0, CFG, max_w=0.1)
+    assert (capped.state, capped.v, capped.w) == (TURN, 0.0, 0.1)

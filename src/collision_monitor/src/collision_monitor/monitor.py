@@ -197,6 +197,54 @@ def decide(points, v, w, config, padding=None):
     return Decision(SLOW, v * scale, w * scale, scale, stop_path, least, culprit)
 
 
+STEER_OFFSETS = (0.15, 0.3, 0.45, 0.6, 0.9, 1.2)  # [rad/s] turn-rate changes steer_clear tries, nearest first
+
+
+def steer_clear(points, v, w, config, max_w, max_change=0.6, padding=None, min_gain=0.05):
+    """For a commander that wants to go on rather than be stopped (follow_me): the command the
+    rule passes nearest (v, w) with as much of the linear speed as it can get. (v, w) itself when
+    the rule passes it whole, or when what slows it is ahead rather than beside the robot (at
+    least 30 deg off the heading: a door jamb, not the person followed); else the same forward speed with the turn rate changed by the
+    smallest of :data:`STEER_OFFSETS` (up to ``max_change`` [rad/s], within +-``max_w``) that the
+    rule passes whole, or failing that the one it lets go fastest, when that is ``min_gain``
+    [m/s] faster than (v, w) itself; when even that is stopped by something beside the robot (not
+    ahead), a turn on the spot away from it (``max_change``), after which an arc passes. Returns
+    the :class:`Decision` to send (its v and w).
+
+    Each candidate is judged by :func:`decide`, so a steered command is as safe as any: it only
+    finds the arc that leaves, say, a door jamb beside the robot instead of grazing it, where the
+    straight command would be stopped and the commander's law would keep asking for it."""
+    first = decide(points, v, w, config, padding)
+    if first.state in (CLEAR, TURN) or not _beside(first.nearest):
+        return first  # passed; or what slows it is ahead (a person followed, a wall): that is the commander's
+    best, best_speed = first, abs(first.v)
+    for change in (c for c in STEER_OFFSETS if c <= max_change + 1e-9):
+        for sign in (1.0, -1.0):
+            cw = w + sign * change
+            if abs(cw) > max_w + 1e-9:
+                continue
+            d = decide(points, v, cw, config, padding)
+            if d.state == CLEAR:
+                return d
+            if abs(d.v) > best_speed + min_gain:
+                best, best_speed = d, abs(d.v)
+    if best is first and first.state == STOP and v > 0:
+        # every arc from this heading comes nearer to what is beside the robot: turn away from it on the spot
+        # (never blocked), then an arc will pass
+        away = -math.copysign(min(max_change, max_w), first.nearest[1])
+        return Decision(TURN, 0.0, away, 0.0, first.stop_path, first.clearance, first.nearest)
+    return best
+
+
+BESIDE_BEARING = math.radians(30)  # [rad] a point at least this far off the heading is beside the robot, not ahead
+
+
+def _beside(point):
+    """A point in the front half, at least BESIDE_BEARING off the heading (not straight ahead)."""
+    x, y = point
+    return math.isfinite(x) and math.isfinite(y) and x > -0.05 and abs(math.atan2(y, x)) >= BESIDE_BEARING
+
+
 def blind(v, w, least=math.inf):
     """No obstacle data to judge by: the linear part stops, turning in place passes."""
     return Decision(TURN if v == 0.0 else BLIND, 0.0, w, 0.0 if v else 1.0, 0.0, least)

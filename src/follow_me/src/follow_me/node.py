@@ -11,9 +11,17 @@ person in ~base_frame every control cycle; result (x, y) when it ends. A person 
 ~lost_timeout after a search: ABORTED "person lost". Cancel or a new goal: a zero command at once,
 PREEMPTED.
 
+Obstacles (~sources, as collision_monitor's: config/sources.yaml): the law steers at the person's
+trail and knows no walls; where the collision monitor would stop its command because of something
+beside the robot (a door jamb it grazes), the command is steered clear first
+(collision_monitor.monitor.steer_clear, by the monitor's own rule: the nearest turn rate, within
+~steer_limit of the law's, that passes at speed, or a turn on the spot away from it). What slows the
+robot ahead (the person, a wall) is left to the law and the monitor.
+
 ROS Subscribers:
     tracked_users (user_tracker_ni/TrackedUsers): people with persistent ids and positions (the
         launch files remap it to filtered_tracked_users).
+    <topic of each source> (sensor_msgs/LaserScan, or a depth image with its camera_info): obstacles.
 
 ROS Publishers:
     cmd_vel (geometry_msgs/Twist): while a goal runs (the launch files remap it to
@@ -23,13 +31,17 @@ ROS Publishers:
 """
 
 import rospy
+from collision_monitor.monitor import CLEAR, SLOW, TURN, MonitorConfig, steer_clear
+from collision_monitor.obstacles import parse_sources
+from collision_monitor.sources import ScanSources
 
+from florence_common import pose as pose2d
 from florence_common.params import FRAME, Param, ParamTable
 from florence_common_ros.behaviour import aborted
 from florence_common_ros.node import read_params, run
 from florence_common_ros.people import PersonBehaviour
 from follow_me.cfg import FollowMeConfig
-from follow_me.law import GAINS, Follower, Limits
+from follow_me.law import FOLLOWING, GAINS, Follower, Limits
 from follow_me.msg import FollowMeAction, FollowMeFeedback, FollowMeResult
 from user_tracker_ni.msg import TrackedUsers
 
@@ -54,14 +66,26 @@ PARAMS = ParamTable(
     Param("lost_timeout", float, 10.0, "a person unseen this long (searching) ends the goal ABORTED", unit="s", gt=0),
     Param("reacquire_radius", float, 0.7, "a new track this near where the person was expected is taken for them",
           unit="m", gt=0),
+    Param("sources", list, None, "the obstacle sensors, as collision_monitor's ~sources (config/sources.yaml); "
+          "unset: no steering clear", optional=True),
+    Param("steer_limit", float, 0.6, "largest change of the law's turn rate that steers a command clear of "
+          "something beside the robot, and the turn rate on the spot when no arc passes (0: never)", unit="rad/s",
+          ge=0, le=1.5),
+    Param("stop_distance", float, MonitorConfig.stop_distance, "the collision monitor's: least clearance a "
+          "steered command's path keeps (the footprint: a circle of ~robot_radius)", unit="m", gt=0),
 )
 
 
 class FollowMeNode(PersonBehaviour):
     def __init__(self):
-        super().__init__("follow_me", FollowMeAction, read_params(PARAMS), GAINS, FollowMeConfig, TrackedUsers,
-                         "FollowMe", LOG)
+        p = read_params(PARAMS)
+        super().__init__("follow_me", FollowMeAction, p, GAINS, FollowMeConfig, TrackedUsers, "FollowMe", LOG)
         self.last_step = None
+        specs = parse_sources(p.sources) if p.sources is not None and p.steer_limit > 0 else []
+        # a depth source at 2 frames a second, as approach_me takes it: its points only steer
+        self.obstacles = ScanSources(specs, "odom", self.tf_buffer, log_prefix=LOG, depth_period=0.5) if specs else None
+        self.monitor = MonitorConfig(robot_radius=p.robot_radius, stop_distance=p.stop_distance)
+        self.steered = 0  # control cycles whose command was steered clear
         self.start()
 
     # --- the goal ----------------------------------------------------------------------------------
@@ -108,9 +132,32 @@ class FollowMeNode(PersonBehaviour):
             return aborted(f"person lost: {person.pid} unseen for {person.unseen_for(now):.1f} s "
                            f"(searched where they were last seen)", self.result())
         self.last_step = out
-        self.drive(out.v, out.w, out.text)
+        v, w, text = out.v, out.w, out.text
+        if self.obstacles is not None and out.mode == FOLLOWING and v > 0:
+            v, w, text = self._steer(robot, v, w, text)
+        self.drive(v, w, text)
         self.server.publish_feedback(FollowMeFeedback(*out.person))
         return None
+
+    def _steer(self, robot, v, w, text):
+        """The law's command steered clear of what is beside the robot (module docstring)."""
+        points, padding = self.obstacles.points()
+        if not len(points):
+            return v, w, text
+        if self.frame != "odom":
+            m, _ = self.people.robot_pose(self.frame, "odom")  # odom in the tracker's frame
+            if m is None:
+                return v, w, text
+            points = pose2d.transform_points(m, points[:, :2])
+        local = pose2d.transform_points(pose2d.inverse(robot), points[:, :2])
+        d = steer_clear(local, v, w, self.monitor, self.controller.limits.max_ang_speed, self.params.steer_limit,
+                        padding)
+        if (d.w == w and d.state != TURN) or d.state not in (CLEAR, SLOW, TURN):
+            return v, w, text  # not steered: the monitor slows or stops it as it is
+        self.steered += 1
+        self.controller.v, self.controller.w = d.v, d.w  # the law's acceleration limits go on from what was sent
+        return d.v, d.w, (f"{text}; steered clear of ({d.nearest[0]:.2f}, {d.nearest[1]:.2f}) beside the robot: "
+                          f"{w:+.2f} -> {d.w:+.2f} rad/s")
 
     def result(self):
         out = self.last_step
@@ -119,6 +166,7 @@ class FollowMeNode(PersonBehaviour):
     def diagnose(self, stat):
         if self.last_step is not None:
             stat.add("distance (m)", f"{self.last_step.distance:.2f}")
+        stat.add("control cycles steered clear of what is beside the robot", self.steered)
 
 
 def main():
