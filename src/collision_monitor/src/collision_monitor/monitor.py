@@ -202,14 +202,15 @@ STEER_OFFSETS = (0.15, 0.3, 0.45, 0.6, 0.9, 1.2)  # [rad/s] turn-rate changes st
 
 def steer_clear(points, v, w, config, max_w, max_change=0.6, padding=None, min_gain=0.05):
     """For a commander that wants to go on rather than be stopped (follow_me): the command the
-    rule passes nearest (v, w) with as much of the linear speed as it can get. (v, w) itself when
-    the rule passes it whole, or when what slows it is ahead rather than beside the robot (at
-    least 30 deg off the heading: a door jamb, not the person followed); else the same forward speed with the turn rate changed by the
-    smallest of :data:`STEER_OFFSETS` (up to ``max_change`` [rad/s], within +-``max_w``) that the
-    rule passes whole, or failing that the one it lets go fastest, when that is ``min_gain``
-    [m/s] faster than (v, w) itself; when even that is stopped by something beside the robot (not
-    ahead), a turn on the spot away from it (``max_change``), after which an arc passes. Returns
-    the :class:`Decision` to send (its v and w).
+    rule passes nearest (v, w) with as much of the linear speed as it can get.
+
+    (v, w) itself when the rule passes it whole, or when what slows it is ahead rather than beside
+    the robot (beside: at least 30 deg off the heading, a door jamb; ahead: the person followed, a
+    wall). Else the same forward speed with the turn rate changed by the smallest of
+    :data:`STEER_OFFSETS` (up to ``max_change`` [rad/s], within +-``max_w``) that the rule passes
+    whole, or failing that the one it lets go fastest when that is ``min_gain`` [m/s] faster than
+    (v, w) itself; when even that is stopped, a turn on the spot away from what stops it (at
+    ``max_change``), after which an arc passes. Returns the :class:`Decision` to send (its v, w).
 
     Each candidate is judged by :func:`decide`, so a steered command is as safe as any: it only
     finds the arc that leaves, say, a door jamb beside the robot instead of grazing it, where the
