@@ -147,7 +147,10 @@ def test_the_monitor_stops_teleop_at_a_wall_and_lets_the_robot_turn_away(sim):
     info = f"gap {gap:.3f} m at x {session.pose()[0]:.2f}{detail(session, proc)}"
     print(f"teleop at the wall: stopped {gap:.3f} m from it (ground truth)")
     assert session.collisions == collisions, info
-    assert 0.0 < gap <= 0.1, info
+    # not too early either: the monitor's stop_distance is 0.06 m; it plans braking at 0.5 m/s^2 while
+    # velocity_filter brakes at 1.0, and judges on 10 Hz scans with the laser's noise: 0.085-0.105 m in 5 runs
+    # (26 Nov), so 0.12 m, not the 0.10 m that failed once
+    assert 0.0 < gap <= 0.12, info
     assert any(s == "stop" for _, s, *_ in session.monitor_log(t0)), info
     t1 = session.sim_now()
     session.teleop(0.0, 1.0, 2.0)  # turning in place passes

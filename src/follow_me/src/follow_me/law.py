@@ -50,7 +50,7 @@ GAINS = ParamTable(
     Param("path_following", bool, True, "steer along the person's trail (through doorways, around corners) "
           "instead of straight at them"),
     Param("lookahead", float, 0.7, "how far ahead on the trail the robot steers to", unit="m", gt=0, le=3),
-    Param("search_speed", float, 0.25, "forward speed while driving to where the person was last seen",
+    Param("search_speed", float, 0.4, "forward speed while driving to where the person was last seen",
           unit="m/s", gt=0, le=0.5),
     Param("search_turn_rate", float, 0.6, "turn rate while looking for the person", unit="rad/s", gt=0, le=2),
 )
