@@ -168,9 +168,12 @@ def test_amcl_tracks_resets_and_relocalizes(setup, tf_buffer):
         t = tf_buffer.lookup_transform("map", "amcl_test/odom", rospy.Time(0), rospy.Duration(5.0))
         assert t.header.stamp > rospy.Time.now() + rospy.Duration(0.2)
 
-        # save_pose_rate (default 0.5 Hz) stores the estimate in ~initial_pose_*.
-        est = latest["pose"].pose.pose.position
-        wait_for(lambda: abs(rospy.get_param("amcl_test/amcl/initial_pose_x") - est.x) < 0.05, 10,
+        # save_pose_rate (default 0.5 Hz) stores the estimate in ~initial_pose_*: compared with the latest
+        # published one, read afresh each time (a snapshot taken as the converged check passed could be the
+        # pose published before the no-motion update's, up to 0.1 m from the filter's newest: it failed so
+        # once in a clean run, 26 Nov)
+        wait_for(lambda: abs(rospy.get_param("amcl_test/amcl/initial_pose_x")
+                             - latest["pose"].pose.pose.position.x) < 0.05, 10,
                  what="the estimate saved in ~initial_pose_x")
 
         # set_map replaces the map and re-initialises at the given pose.

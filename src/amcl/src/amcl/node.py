@@ -36,7 +36,7 @@ from std_srvs.srv import Empty, EmptyResponse
 from amcl.localizer import Localizer, config_from_params, map_to_odom
 from amcl.params import NODE
 from amcl.sensor import beams_in_base
-from florence_common.pose import yaw_to_quaternion
+from florence_common.pose import compose, yaw_to_quaternion
 from florence_common_ros.convert import pose_msg, quaternion_tuple, to_xyyaw, transform_stamped, yaw_of
 from florence_common_ros.diagnostics import ERROR, OK, WARN, Diagnostics
 from florence_common_ros.node import read_params, run
@@ -71,6 +71,7 @@ class AmclNode:
         self.have_map = False
         self.laser_geometry = {}  # laser frame -> (laser_xy, rotation quaternion)
         self.last_map_to_odom = None
+        self.last_published_cov = None  # the covariance of the last amcl_pose
         self.last_save = None
         self.force_publish = True  # publish the first estimate after a (re)initialisation
 
@@ -229,12 +230,15 @@ class AmclNode:
                     self.force_publish = False
                     self.publish_pose(result, scan.header.stamp)
                     self.last_map_to_odom = map_to_odom(result.pose, odom_pose)
+                    self.last_published_cov = result.cov
             elif result.reason not in ("", "not moved enough"):
                 self._skip(result.reason)
             if self.last_map_to_odom is not None and self.tf_broadcast:
                 self.publish_tf(self.last_map_to_odom, scan.header.stamp + self.transform_tolerance)
-            if self.localizer.last_estimate is not None:
-                self.maybe_save_pose(*self.localizer.last_estimate)
+            if self.last_map_to_odom is not None and self.last_published_cov is not None:
+                # as ROS's amcl saves it: the published map -> odom applied to the latest odometry (not a
+                # filter estimate that was never published: a no-motion update without a resample is not)
+                self.maybe_save_pose(compose(self.last_map_to_odom, odom_pose), self.last_published_cov)
 
     def publish_pose(self, result, stamp):
         msg = PoseWithCovarianceStamped()

@@ -61,8 +61,9 @@ NODE = ParamTable(
     Param("initial_cov_aa", float, (math.pi / 12.0) ** 2, "initial variance of yaw", unit="rad^2", ge=0),
     Param("gui_publish_rate", float, -1.0, "accepted and unused, as in ROS noetic amcl (particlecloud goes out with "
           "every filter update)", unit="Hz"),
-    Param("save_pose_rate", float, 0.5, "how often the estimate is stored in ~initial_pose_* and ~initial_cov_* "
-          "(<= 0 disables)", unit="Hz"),
+    Param("save_pose_rate", float, 0.5, "how often the robot's pose (the published map -> odom applied to the "
+          "latest odometry, as ROS's amcl) is stored in ~initial_pose_* and ~initial_cov_* (<= 0 disables)",
+          unit="Hz"),
     Param("use_map_topic", bool, False, "take the map from the map topic instead of the static_map service"),
     Param("first_map_only", bool, False, "ignore maps after the first"),
     Param("odom_frame_id", FRAME, "odom", "the odometry frame"),
