@@ -142,7 +142,8 @@ def test_the_monitor_stops_teleop_at_a_wall_and_lets_the_robot_turn_away(sim):
     session.teleop(0.3, 0.0, 5.0)
     scene_ = nav_metrics.load_scene()
     radius, height = nav_metrics.robot_body()
-    track = np.column_stack([session.truth_log(t0), np.zeros((len(session.truth_log(t0)), 2))])
+    truth = session.truth_log(t0)  # read once: the log grows while we look
+    track = np.column_stack([truth, np.zeros((len(truth), 2))])
     gap = nav_metrics.body_clearance(scene_, track, radius, height)
     info = f"gap {gap:.3f} m at x {session.pose()[0]:.2f}{detail(session, proc)}"
     print(f"teleop at the wall: stopped {gap:.3f} m from it (ground truth)")
