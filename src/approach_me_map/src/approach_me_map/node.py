@@ -54,7 +54,7 @@ from detect_users.msg import DetectedUser
 from florence_common import pose as pose2d
 from florence_common.params import FRAME, Param, ParamTable
 from florence_common_ros import convert
-from florence_common_ros.actions import server_ready, state_name
+from florence_common_ros.actions import SentGoal, server_ready, state_name
 from florence_common_ros.diagnostics import OK, WARN, Diagnostics
 from florence_common_ros.node import publish_stop, read_params, run
 from florence_common_ros.transforms import lookup_matrix
@@ -334,15 +334,15 @@ class ApproachMeMapNode:
 
         def send():
             done.clear()
-            self.client.send_goal(MoveBaseGoal(target_pose=convert.pose_stamped(*target, goal.yaw, p.map_frame,
-                                                                                rospy.Time.now())),
-                                  done_cb=lambda *_: done.set())
+            sent_goal[0] = SentGoal(self.client, MoveBaseGoal(target_pose=convert.pose_stamped(
+                *target, goal.yaw, p.map_frame, rospy.Time.now())), done_cb=lambda _state: done.set())
             return rospy.get_time()
 
+        sent_goal = [None]
         started = sent = send()
         stall, stalled, moves = Stall(p.stall_radius, p.stall_timeout), "", 0
         try:
-            while not done.wait(0.1):
+            while not done.wait(0.1) and not sent_goal[0].poll():
                 self._check()
                 self._heartbeat(beat)
                 with self.lock:

@@ -1,6 +1,8 @@
 """actionlib helpers that never block (a rospy client under a stalled simulated clock would wait
 for ever in ``wait_for_server``)."""
 
+import threading
+
 from actionlib_msgs.msg import GoalStatus
 
 STATE_NAMES = {v: k for k, v in vars(GoalStatus).items() if isinstance(v, int) and k.isupper()}
@@ -9,6 +11,11 @@ STATE_NAMES = {v: k for k, v in vars(GoalStatus).items() if isinstance(v, int) a
 def state_name(state):
     """actionlib's name of a GoalStatus value (SUCCEEDED, ABORTED, ...), or the number as text."""
     return STATE_NAMES.get(state, str(state))
+
+
+ACTIVE_STATES = (GoalStatus.ACTIVE, GoalStatus.PREEMPTING)
+DONE_STATES = (GoalStatus.PREEMPTED, GoalStatus.SUCCEEDED, GoalStatus.ABORTED, GoalStatus.REJECTED,
+               GoalStatus.RECALLED, GoalStatus.LOST)
 
 
 def server_ready(client):
@@ -40,3 +47,53 @@ def server_ready_within(client, timeout, period=0.05):
             return False
         time.sleep(period)
     return True
+
+
+class SentGoal:
+    """A goal sent through the SimpleActionClient ``client``, whose ``active_cb()`` and
+    ``done_cb(state)`` are each called exactly once, even when actionlib drops the transition.
+
+    rospy's SimpleActionClient assigns its goal handle only after ``send_goal`` has published the
+    goal; a server that answers at once (on the same machine, or a goal aborted immediately) can
+    have its status processed in that window, and the client then drops the transition ("Got a
+    transition callback on a goal handle that we're not tracking"): the active or the done
+    callback never comes although ``get_state()`` tells it. :meth:`poll`, called periodically,
+    delivers what was dropped from ``get_state()``. Call it from one thread with the goal still
+    the client's newest (a newer goal replaces this one and its poll does nothing).
+    """
+
+    def __init__(self, client, goal, active_cb=None, done_cb=None, feedback_cb=None):
+        self.client = client
+        self._active_cb, self._done_cb = active_cb, done_cb
+        self._lock = threading.Lock()
+        self.active = self.done = False
+        self.state = None  # the GoalStatus value it ended in, once done
+        client.send_goal(goal, done_cb=lambda state, _result: self._on_done(state), active_cb=self._on_active,
+                         feedback_cb=feedback_cb)
+        self._handle = client.gh
+
+    def poll(self):
+        """Deliver a transition actionlib dropped; True once the goal is done."""
+        if not self.done and self.client.gh is self._handle and self._handle is not None:
+            state = self.client.get_state()
+            if state in ACTIVE_STATES:
+                self._on_active()
+            elif state in DONE_STATES:
+                self._on_done(state)
+        return self.done
+
+    def _on_active(self):
+        with self._lock:
+            if self.active or self.done:
+                return
+            self.active = True
+        if self._active_cb is not None:
+            self._active_cb()
+
+    def _on_done(self, state):
+        with self._lock:
+            if self.done:
+                return
+            self.done, self.state = True, state
+        if self._done_cb is not None:
+            self._done_cb(state)

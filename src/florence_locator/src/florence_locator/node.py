@@ -53,7 +53,7 @@ from detect_users.msg import DetectedUser
 from florence_common import pose as pose2d
 from florence_common.params import FRAME, Param, ParamTable
 from florence_common_ros import convert
-from florence_common_ros.actions import server_ready_within, state_name
+from florence_common_ros.actions import SentGoal, server_ready_within, state_name
 from florence_common_ros.diagnostics import ERROR, OK, WARN, Diagnostics
 from florence_common_ros.node import read_params, run
 from florence_common_ros.transforms import lookup_matrix
@@ -114,6 +114,7 @@ class FlorenceLocatorNode:
         self.tf_buffer = tf2_ros.Buffer(cache_time=rospy.Duration(10.0))
         self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
         self.client = actionlib.SimpleActionClient("move_base", MoveBaseAction)
+        self.goal = None  # the newest move_base goal (a SentGoal)
 
         self.cmd_pub = rospy.Publisher("detect_user/cmd", Bool, queue_size=5)
         self.detected_pub = rospy.Publisher("detected_user", DetectedUser, queue_size=5)
@@ -164,8 +165,8 @@ class FlorenceLocatorNode:
                 x, y, phi = c.args
                 goal = MoveBaseGoal(target_pose=convert.pose_stamped(x, y, phi, self.p.map_frame, rospy.Time.now()))
                 aid = c.activity
-                self.client.send_goal(goal, done_cb=lambda s, _r, aid=aid: self._goal_done(aid, s),
-                                      active_cb=lambda aid=aid: self._goal_active(aid))
+                self.goal = SentGoal(self.client, goal, active_cb=lambda aid=aid: self._goal_active(aid),
+                                     done_cb=lambda s, aid=aid: self._goal_done(aid, s))
             elif c.name == "cancel_goal":
                 self.client.cancel_goal()
             elif c.name == "cancel_goals":
@@ -198,6 +199,9 @@ class FlorenceLocatorNode:
                         robot, _why = self.robot_pose()
                         with self.lock:
                             self._execute(self.core.goal_done(event[1], event[2], event[3], robot, self.now()))
+                with self.lock:
+                    if self.goal is not None:
+                        self.goal.poll()  # a transition actionlib dropped comes as an event now
                 if time.monotonic() >= next_tick:
                     next_tick = time.monotonic() + 0.2
                     with self.lock:
