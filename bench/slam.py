@@ -43,6 +43,8 @@ ROOM_ORDER = ["kitchen", "bathroom", "bedroom", "corridor", "living_room"]
 
 
 def verdict(figures):
+    if "occupied_f1" not in figures:  # --saved-map: navigation only
+        return {}
     return {"occupied_f1": figures["occupied_f1"] >= TARGETS["occupied_f1"],
             "free_agreement": figures["free_agreement"] >= TARGETS["free_agreement"],
             "ate_rms_m": figures["ate_rms_m"] <= TARGETS["ate_rms_m"],
@@ -96,6 +98,16 @@ def ros_run(args):
     start = MAPPING_START
     common = [f"people:={people}", f"real_time_factor:={args.rtf}", f"seed:={args.seed}", f"x:={start[0]}",
               f"y:={start[1]}", f"yaw:={start[2]}"]
+    if args.saved_map:  # the navigation step alone, on a map saved by an earlier run
+        import rospy
+
+        rospy.init_node("bench", anonymous=False, disable_signals=True)
+        figures = {"mode": "ros", "seed": args.seed, "people": not args.nobody, "rtf": args.rtf,
+                   "map_file": args.saved_map}
+        keepout = "none" if args.no_keepout else draw_keepout(args.saved_map, start)
+        figures["navigation"] = {**navigate(master, args.saved_map, common, start, keepout), "keepout_map": keepout}
+        master.stop()
+        return figures, "slam_nav"
     stack = roslaunch(master, "gmapping", "build_map.launch", "sim:=true", f"slam_seed:={args.seed}",
                       f"particles:={args.particles}", *common)
     figures = {"mode": "ros", "seed": args.seed, "people": not args.nobody, "rtf": args.rtf}
@@ -165,13 +177,39 @@ def ros_run(args):
     finally:
         stack.stop()
     if not args.no_nav:
-        figures["navigation"] = navigate(master, saved, common, start)
+        keepout = "none" if args.no_keepout else draw_keepout(saved, start)
+        figures["navigation"] = navigate(master, saved, common, start, keepout)
+        figures["navigation"]["keepout_map"] = keepout
     master.stop()
     return figures, "slam"
 
 
-def navigate(master, saved, common, start):
-    """turtlebot_2dnav_control.launch sim:=true on the saved map: every room hotspot, carried into its frame."""
+def draw_keepout(saved, start):
+    """The manual's step 3 as a user does it: the saved map's keep-out map, with the table tops, chair
+    seats and thresholds the laser does not see painted where they stand in the saved map's frame (the
+    simulated home's furniture, placed through the pose mapping began at, plays what the user knows of
+    their home). Returns the YAML's path."""
+    from map_server.mapfile import GridMap, load_map, save_map
+
+    built, world = load_map(saved), load_map(map_file("apartment", "apartment_keepout.yaml"))
+    rows, cols = np.mgrid[0:built.height, 0:built.width]
+    cells = (np.column_stack([cols.ravel(), rows.ravel()]) + 0.5) * built.resolution  # from the map's origin
+    xy = pose.transform_points(start, pose.transform_points(built.origin, cells))  # the world's frame
+    col = np.floor((xy[:, 0] - world.origin[0]) / world.resolution).astype(int)
+    row = np.floor((xy[:, 1] - world.origin[1]) / world.resolution).astype(int)
+    inside = (col >= 0) & (col < world.width) & (row >= 0) & (row < world.height)
+    keep = np.zeros(len(xy), dtype=bool)
+    keep[inside] = world.data[row[inside], col[inside]] >= 65
+    grid = GridMap(data=np.where(keep, 100, 0).astype(np.int8).reshape(built.data.shape),
+                   resolution=built.resolution, origin=built.origin)
+    _pgm, path = save_map(grid, str(Path(saved).with_suffix("")) + "_keepout")
+    print(f"drew {int(keep.sum())} keep-out cells into {path}", flush=True)
+    return path
+
+
+def navigate(master, saved, common, start, keepout):
+    """turtlebot_2dnav_control.launch sim:=true on the saved map: every room hotspot, carried into its frame.
+    ``keepout``: the keep-out map drawn for it, or "none" (the manual's optional step 3 skipped)."""
     import rospy
     from florence_eval.nav_session import NavSession
     from geometry_msgs.msg import PoseWithCovarianceStamped
@@ -180,13 +218,12 @@ def navigate(master, saved, common, start):
     from florence_common_ros import convert
 
     rooms = yaml.safe_load(map_file("apartment", "rooms.yaml").read_text())["rooms"]
-    # keepout_map_file none: the simulator's keep-out map is drawn in the world's frame, not the saved map's
-    # (with it, the bedroom's hotspot lay in a keep-out zone and furniture off the shifted zones looked
-    # unmapped: 2 of 5 hotspots); a user who has just built a map has none for it yet. Not "keepout_map_file:=":
+    # never the simulator's apartment_keepout.yaml: it is drawn in the world's frame, not the saved map's
+    # (with it, the bedroom's hotspot lay in a keep-out zone: 2 of 5 hotspots). Not "keepout_map_file:=":
     # roslaunch drops an empty value and the default (the world's) stood (the bedroom refused, cost 254)
     stack = roslaunch(master, "turtlebot_control", "turtlebot_2dnav_control.launch", "sim:=true",
-                      f"map_file:={saved}", "nav_map_topic:=/map", "local_map_topic:=/map", "keepout_map_file:=none",
-                      *common)
+                      f"map_file:={saved}", "nav_map_topic:=/map", "local_map_topic:=/map",
+                      f"keepout_map_file:={keepout}", *common)
     legs = []
     try:
         session = NavSession()
@@ -218,6 +255,7 @@ def navigate(master, saved, common, start):
         return result
     finally:
         stack.stop()
+        (RESULTS / "slam_nav.log").write_text(stack.output(tail_bytes=1 << 30))  # move_base's reasons, among others
 
 
 def main():
@@ -228,6 +266,10 @@ def main():
     parser.add_argument("--nobody", action="store_true", help="without the apartment's walking people")
     parser.add_argument("--rtf", type=float, default=2.0, help="simulator real-time factor (ROS run)")
     parser.add_argument("--no-nav", action="store_true", help="ROS run: stop after saving the map")
+    parser.add_argument("--saved-map", metavar="YAML", help="ROS run: only navigate, on this map saved by an earlier "
+                        "run (the mapping started at the tour's start pose)")
+    parser.add_argument("--no-keepout", action="store_true",
+                        help="ROS run: navigate on the saved map without drawing its keep-out map (step 3)")
     args = parser.parse_args()
     RESULTS.mkdir(parents=True, exist_ok=True)
     figures, name = offline(args) if args.offline else ros_run(args)
