@@ -44,7 +44,7 @@ def _send(client, x=1.0, drop=False):
         client._handle_transition = lambda _gh: None
     try:
         sent = SentGoal(client, MoveBaseGoal(target_pose=pose_stamped(x, 0.0, 0.0, "map")),
-                        active_cb=lambda: calls.append("active"), done_cb=lambda state: calls.append(state))
+                        active_cb=lambda: calls.append("active"), done_cb=calls.append)
     finally:
         if drop:
             del client._handle_transition  # the class's method again, for later goals
@@ -54,7 +54,7 @@ def _send(client, x=1.0, drop=False):
 def test_callbacks_come_once_each_with_or_without_polling(nav):
     from actionlib_msgs.msg import GoalStatus
 
-    client, behaviour = nav
+    client, _behaviour = nav
     sent, calls = _send(client)
     assert _until(lambda: sent.done, 10, poll=sent.poll)
     assert _until(lambda: len(calls) == 2, 5)
