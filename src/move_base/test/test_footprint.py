@@ -29,6 +29,14 @@ def test_padding_moves_each_coordinate_outwards():
     assert padded[3].tolist() == pytest.approx([0.25, 0.0])  # y = 0 stays 0 (sign 0)
 
 
+def test_a_costmap_keeps_the_body_beside_its_padded_footprint():
+    from move_base.costmap_config import CostmapConfig
+
+    cfg = {"footprint": SEED, "footprint_padding": 0.06, "observation_sources": ""}
+    c = CostmapConfig.read(cfg.get)
+    assert np.allclose(c.body, SEED) and np.allclose(c.footprint, pad_footprint(np.array(SEED), 0.06))
+
+
 def test_radii_of_the_padded_seed_footprint():
     padded = pad_footprint(parse_footprint(SEED), 0.01)
     assert inscribed_radius(padded) == pytest.approx(0.17)  # the back and the sides are 0.17 m away

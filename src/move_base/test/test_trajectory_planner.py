@@ -324,6 +324,26 @@ def test_no_escape_into_what_is_behind_the_robot():
     assert cost < 0 and cmd == (0.0, 0.0, 0.0)
 
 
+def test_escape_judges_its_end_by_the_body_not_the_padding():
+    """Florence: the launch pads the footprint by 6 cm. Boxed in at the padded nose, with a jamb's
+    corner beside the tail that the padding would touch after backing up but the robot's own
+    outline does not (a robot a few degrees askew in a doorway): the escape is taken when the
+    planner knows the body, refused when it judges by the padded footprint alone."""
+    body = parse_footprint(_COMMON["footprint"])
+    padded = pad_footprint(body, 0.06)
+    cm = Costmap2D(200, 200, 0.05)
+    cm.costs[90:111, 105:107] = LETHAL_OBSTACLE  # x 5.25 .. 5.35: the padded nose (5.30) touches it, the body's not
+    cm.costs[104, 94] = LETHAL_OBSTACLE  # x 4.70 .. 4.75, y 5.20 .. 5.25: between the body's side and the padding's
+    plan = straight_plan(5.0, 8.0, 5.0)
+    assert footprint_cost(cm, 4.85, 5.0, 0.0, padded) < 0 <= footprint_cost(cm, 4.85, 5.0, 0.0, body)
+    tp = TrajectoryPlanner(seed_params(), padded)
+    cmd, cost, _ = tp.find_best_command(cm, 5.0, 5.0, 0.0, 0.0, 0.0, 0.0, plan)
+    assert cost < 0 and cmd == (0.0, 0.0, 0.0)
+    tp = TrajectoryPlanner(seed_params(), padded, body=body)
+    cmd, cost, _ = tp.find_best_command(cm, 5.0, 5.0, 0.0, 0.0, 0.0, 0.0, plan)
+    assert cmd == (-0.1, 0.0, 0.0) and cost == 1.0 and tp.escaping
+
+
 def test_no_route_to_the_goal_gives_a_negative_cost_and_zero_command():
     cm = Costmap2D(60, 60, 0.1)
     cm.costs[:, 35] = LETHAL_OBSTACLE  # a wall between the robot and the plan's end (the local goal)

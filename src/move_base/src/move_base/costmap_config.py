@@ -124,6 +124,11 @@ class CostmapConfig:
     inputs: dict
     proxemic: Params | None = None
 
+    @property
+    def body(self):
+        """The footprint as configured, without footprint_padding: the robot's own outline (N, 2) [m]."""
+        return parse_footprint(self.params.footprint, self.params.robot_radius)
+
     @classmethod
     def read(cls, get):
         """The configuration from ``get(key, default)``, a getter of the costmap's namespace (each

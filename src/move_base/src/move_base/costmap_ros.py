@@ -119,6 +119,7 @@ class Costmap2DROS:
         self.rolling_window = p.rolling_window
         self.map_topic = p.map_topic
         self.footprint = cfg.footprint
+        self.body = cfg.body  # the footprint without its padding
         self.sources = list(cfg.sources)
         self._inputs = cfg.inputs
         size_x, size_y = cfg.size

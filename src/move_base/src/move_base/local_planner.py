@@ -135,6 +135,8 @@ class LocalPlanner:
         params: :class:`move_base.trajectory_planner.PlannerParams`.
         footprint: (N, 2) footprint [m] in the base frame.
         inscribed_radius, circumscribed_radius: footprint radii [m].
+        body: (M, 2) the footprint without its padding [m] (None: the footprint), what must end
+            clear when the robot backs up out of a collision (TrajectoryPlanner).
 
     Attributes:
         global_plan: (N, 3) plan [m, m, rad] in the global frame as set, pruned as the robot
@@ -144,9 +146,9 @@ class LocalPlanner:
             to the goal yaw or when no trajectory is legal), for display.
     """
 
-    def __init__(self, params, footprint, inscribed_radius=0.0, circumscribed_radius=0.0):
+    def __init__(self, params, footprint, inscribed_radius=0.0, circumscribed_radius=0.0, body=None):
         self.params = params
-        self.planner = TrajectoryPlanner(params, footprint, inscribed_radius, circumscribed_radius)
+        self.planner = TrajectoryPlanner(params, footprint, inscribed_radius, circumscribed_radius, body=body)
         self.global_plan = np.empty((0, 3))
         self.transformed_plan = np.empty((0, 3))
         self.local_plan = np.empty((0, 3))

@@ -327,9 +327,9 @@ class MoveBaseNode:
         self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
         self.planner_costmap = Costmap2DROS("global_costmap", self.tf_buffer)
         self.controller_costmap = Costmap2DROS("local_costmap", self.tf_buffer)
-        fp = self.controller_costmap.footprint
-        self.local_planner = LocalPlanner(self.planner_params, fp, self.controller_costmap.inscribed_radius,
-                                          self.controller_costmap.circumscribed_radius)
+        local = self.controller_costmap
+        self.local_planner = LocalPlanner(self.planner_params, local.footprint, local.inscribed_radius,
+                                          local.circumscribed_radius, body=local.body)
         self.recoveries = self._load_recoveries()
         people = None
         if self.params.person_wait_timeout > 0.0:

@@ -597,11 +597,14 @@ class TrajectoryPlanner:
         params: :class:`PlannerParams`.
         footprint: (N, 2) footprint [m] in the base frame (fewer than 3 points: circular robot).
         inscribed_radius, circumscribed_radius: [m], informational (ROS passes them on too).
+        body: (M, 2) the robot's own outline [m] (the footprint without its padding; None: the
+            footprint), what must end clear of obstacles when the robot backs up out of a collision.
     """
 
-    def __init__(self, params, footprint, inscribed_radius=0.0, circumscribed_radius=0.0):
+    def __init__(self, params, footprint, inscribed_radius=0.0, circumscribed_radius=0.0, body=None):
         self.params = params
         self.footprint = np.asarray(footprint, dtype=float).reshape(-1, 2)
+        self.body = self.footprint if body is None else np.asarray(body, dtype=float).reshape(-1, 2)
         self.inscribed_radius = float(inscribed_radius)
         self.circumscribed_radius = float(circumscribed_radius)
         self.path_dist = None  # (H, W) [cells] distance to the plan
@@ -810,7 +813,10 @@ class TrajectoryPlanner:
         Returns:
             (cmd (vx, vy, vth), cost, points (N, 3)): cost < 0 means no legal trajectory and a
             zero command. An escape (backing up) returns cost 1.0 even when it collides, as ROS, if
-            its last pose is clear (Florence: ROS backs into what is behind the robot too).
+            the robot's body (the footprint without its padding) ends clear at its last pose
+            (Florence: ROS backs into what is behind the robot too; the padded footprint would keep
+            a robot a few degrees askew in a doorway from backing out of it, the padding touching a
+            jamb, and a person it met there waiting for it for ever).
         """
         plan_xy = np.asarray(plan_xy, dtype=float).reshape(-1, 2)
         self.update_plan(costmap, plan_xy, x, y, yaw)
@@ -835,7 +841,7 @@ class TrajectoryPlanner:
                           float(costs[best]), pts[best, : n_valid[best]].copy())
         if kinds[best] == ESCAPE:
             end = pts[best, max(int(steps[best]) - 1, 0)]
-            ends_free = footprint_cost(costmap, float(end[0]), float(end[1]), float(end[2]), self.footprint) >= 0
+            ends_free = footprint_cost(costmap, float(end[0]), float(end[1]), float(end[2]), self.body) >= 0
             traj.cost = self._escape_bookkeeping(traj.cost, x, y, yaw, ends_free)
         self.last_trajectory = traj
         if traj.cost < 0:
@@ -964,5 +970,6 @@ class TrajectoryPlanner:
         self._maybe_end_escape(x, y, yaw)
         # Back up even when the footprint touches an obstacle (ROS: "even when the static map shows
         # it as blocked"), so a robot whose nose touches something can back off it; Florence: only
-        # when backing ends clear of obstacles (ROS backed the robot into a table's corner behind it)
+        # when backing ends with the body clear of obstacles (ROS backed the robot into a table's
+        # corner behind it)
         return 1.0 if cost == -1.0 and ends_free else cost
