@@ -439,6 +439,54 @@ def test_person_waits_while_the_robot_is_in_the_way():
     assert p.x == pytest.approx(4.0)
 
 
+def test_a_person_walks_on_past_the_robot_beside_their_way():
+    """Only a step that heads at the robot waits: one beside the way (here 0.5 m off it, nearer
+    than radius + radius + GAP as they pass) is walked on, also a last centimetre to a waypoint
+    that comes nearer the robot (the case that stood for ever in a doorway)."""
+    p = Person("a", path=[(0.0, 0.0), (4.0, 0.0)], speed=1.0, mode="once")
+    for _ in range(400):
+        p.step(DT, keep_clear=(2.0, 0.5, 0.17))
+    assert p.x == pytest.approx(4.0)
+    q = Person("b", path=[(0.0, 0.0), (0.0, 0.5), (0.0, -3.0)], speed=1.0, mode="once")
+    q.y = 0.49
+    robot = (-0.45, 0.71, 0.17)
+    assert math.hypot(q.x - robot[0], q.y - robot[1]) < robot[2] + q.radius + 0.15
+    for _ in range(400):
+        q.step(DT, keep_clear=robot)
+    assert q.finished and q.y == pytest.approx(-3.0)
+    r = Person("c", path=[(0.0, 0.0), (4.0, 0.0)], speed=1.0, mode="once")
+    for _ in range(400):  # 0.4 m off the way: heads at the robot when it comes near, and waits
+        r.step(DT, keep_clear=(2.0, 0.4, 0.17))
+    assert r.x < 2.0 and r.vx == 0.0
+
+
+@pytest.mark.parametrize("mode", ["back_and_forth", "loop"])
+def test_a_person_kept_waiting_turns_back_after_their_patience(mode):
+    """Head-on with a robot that does not move, a person waits PATIENCE seconds, then walks their
+    route the other way (a loop backwards); one walking ``once`` waits on."""
+    from florence_sim.people import PATIENCE
+
+    path = [(0.0, 0.0), (4.0, 0.0), (4.0, 2.0)]
+    p = Person("a", path=path, speed=1.0, mode=mode)
+    robot = (2.0, 0.0, 0.17)
+    waited = 0.0
+    while p.vx >= 0.0 and waited < PATIENCE + 5.0:
+        p.step(DT, keep_clear=robot)
+        waited += DT if p.vx == 0.0 else 0.0
+    assert p.vx < 0.0 and waited == pytest.approx(PATIENCE, abs=2 * DT)
+    start = p.x
+    for _ in range(100):  # 1 m back toward the first waypoint
+        p.step(DT, keep_clear=robot)
+    assert p.x == pytest.approx(start - 1.0, abs=0.02) and p.y == 0.0
+    for _ in range(150):  # then on the other way: back and forth toward the robot again, a loop to (4, 2)
+        p.step(DT, keep_clear=robot)
+    assert (p.x > 0.5 and p.vx > 0.0) if mode == "back_and_forth" else (p.y > 0.2 and p.vy > 0.0)
+    once = Person("b", path=path, speed=1.0, mode="once")
+    for _ in range(int((PATIENCE + 5.0) / DT)):
+        once.step(DT, keep_clear=robot)
+    assert once.x == pytest.approx(2.0 - 0.17 - 0.20 - 0.15, abs=0.02) and once.vx == 0.0
+
+
 def test_sitting_and_standing_bodies():
     standing = Person("a", x=1.0, y=0.0)
     sitting = Person("b", x=1.0, y=0.0, posture="sitting")

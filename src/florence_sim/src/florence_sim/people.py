@@ -2,7 +2,7 @@
 
 A person stands, sits, or walks along waypoints at a set speed (modes ``loop``,
 ``back_and_forth``, ``once``), pausing at each waypoint, and waits while the robot
-stands in the way. The body is made of
+stands in the way (turning back after :data:`PATIENCE` seconds). The body is made of
 cylinders, so the laser sees two legs and the Kinect the shirt colour. Paths
 are checked against the world: one through a wall or furniture is refused.
 
@@ -34,6 +34,15 @@ TROUSERS = (0.20, 0.20, 0.25)
 STRIDE = 1.2  # [m] distance for one full leg cycle (at the default height)
 SWING = 0.12  # [m] forward/backward leg swing amplitude while walking (at the default height)
 GAP = 0.15  # [m] a walking person keeps this gap to the robot (and waits if it is in the way)
+# A person waits for the robot only when their step heads at it: within this angle [rad] of the
+# line to the robot's centre. One who passes beside it (or whose next waypoint lies a centimetre
+# beyond their last step) walks on, as anyone would; head-on in a corridor they wait.
+WAIT_CONE = math.radians(60.0)
+# A walking person who has waited this long [s] for the robot turns back and walks their route the
+# other way (modes loop and back_and_forth; one walking ``once`` waits on): nobody stands for ever
+# half a metre from a robot that does not move, and a robot and a person waiting for each other in
+# a corridor would otherwise both wait until the robot gives up.
+PATIENCE = 10.0
 # Body parts of a person HEIGHT tall of build 1, in the person's frame (x forward, y left, z up):
 # name, x [m], y [m], radius [m], bottom z [m], top z [m], colour (None: the shirt's), swing sign
 # (a walking person's legs swing forward by +-SWING * sin(phase)).
@@ -72,6 +81,7 @@ class Person:
     vx: float = 0.0
     vy: float = 0.0
     finished: bool = False
+    blocked: float = 0.0  # [s] waited for the robot since the last step taken
 
     def __post_init__(self):
         if self.path:
@@ -92,7 +102,9 @@ class Person:
 
     def step(self, dt, keep_clear=None):
         """Advance the walk by ``dt`` [s]. ``keep_clear`` = (x, y, radius) [m] of something
-        (the robot) the person does not walk into: they wait while it is in the way."""
+        (the robot) the person does not walk into: they wait while it is in the way (their step
+        would bring them within its radius + theirs + GAP, heading at it: :data:`WAIT_CONE`), and
+        turn back after :data:`PATIENCE`."""
         self.vx = self.vy = 0.0
         if not self.walking:
             return
@@ -101,10 +113,18 @@ class Person:
             before = math.hypot(self.x - keep_clear[0], self.y - keep_clear[1])
             self.step(dt)
             after = math.hypot(self.x - keep_clear[0], self.y - keep_clear[1])
-            if after < keep_clear[2] + self.radius + GAP and after < before:
+            step_x, step_y = self.x - saved[0], self.y - saved[1]
+            to_x, to_y = keep_clear[0] - saved[0], keep_clear[1] - saved[1]
+            heads_at = step_x * to_x + step_y * to_y > math.cos(WAIT_CONE) * math.hypot(step_x, step_y) * before
+            if after < keep_clear[2] + self.radius + GAP and after < before and heads_at:
                 (self.x, self.y, self.yaw, self.target, self.direction, self.wait, self.phase,
                  self.finished) = saved
                 self.vx = self.vy = 0.0
+                self.blocked += dt
+                if self.blocked >= PATIENCE and self.mode != "once":
+                    self.turn_back()
+            else:
+                self.blocked = 0.0
             return
         if self.wait > 0:
             self.wait = max(0.0, self.wait - dt)
@@ -129,6 +149,16 @@ class Person:
                     break
         self.vx = self.speed * math.cos(self.yaw) if not self.finished else 0.0
         self.vy = self.speed * math.sin(self.yaw) if not self.finished else 0.0
+
+    def turn_back(self):
+        """Walk the route the other way from here: toward the waypoint last passed, then on in the
+        reverse order (a loop backwards; back and forth from the other end)."""
+        n = len(self.path)
+        came_from = self.target - self.direction
+        self.target = came_from % n if self.mode == "loop" else min(max(came_from, 0), n - 1)
+        self.direction = -self.direction
+        self.wait = 0.0
+        self.blocked = 0.0
 
     def _next_waypoint(self):
         n = len(self.path)
