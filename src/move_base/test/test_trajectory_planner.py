@@ -325,14 +325,14 @@ def test_no_escape_into_what_is_behind_the_robot():
 
 
 def test_escape_judges_its_end_by_the_body_not_the_padding():
-    """Florence: the launch pads the footprint by 6 cm. Boxed in at the padded nose, with a jamb's
+    """Florence: the launch pads the footprint by 6 cm. Boxed in at the nose, with a jamb's
     corner beside the tail that the padding would touch after backing up but the robot's own
     outline does not (a robot a few degrees askew in a doorway): the escape is taken when the
     planner knows the body, refused when it judges by the padded footprint alone."""
     body = parse_footprint(_COMMON["footprint"])
     padded = pad_footprint(body, 0.06)
     cm = Costmap2D(200, 200, 0.05)
-    cm.costs[90:111, 105:107] = LETHAL_OBSTACLE  # x 5.25 .. 5.35: the padded nose (5.30) touches it, the body's not
+    cm.costs[90:111, 104:107] = LETHAL_OBSTACLE  # x 5.20 .. 5.35: the nose (5.24; padded 5.30) touches it
     cm.costs[104, 94] = LETHAL_OBSTACLE  # x 4.70 .. 4.75, y 5.20 .. 5.25: between the body's side and the padding's
     plan = straight_plan(5.0, 8.0, 5.0)
     assert footprint_cost(cm, 4.85, 5.0, 0.0, padded) < 0 <= footprint_cost(cm, 4.85, 5.0, 0.0, body)
@@ -342,6 +342,30 @@ def test_escape_judges_its_end_by_the_body_not_the_padding():
     tp = TrajectoryPlanner(seed_params(), padded, body=body)
     cmd, cost, _ = tp.find_best_command(cm, 5.0, 5.0, 0.0, 0.0, 0.0, 0.0, plan)
     assert cmd == (-0.1, 0.0, 0.0) and cost == 1.0 and tp.escaping
+
+
+def test_a_robot_within_its_padding_of_a_wall_drives_out_of_it():
+    """Florence: the padded footprint (6 cm) touches a wall beside the robot, its body (1 cm) does
+    not: every sample collides at its first pose for the padded footprint, so the planner alone
+    would only back up (along the wall, still in it). A trajectory whose body stays clear and whose
+    padded footprint ends clear is taken: the robot drives off the wall, toward its plan."""
+    raw = parse_footprint(_COMMON["footprint"])
+    body, padded = pad_footprint(raw, 0.01), pad_footprint(raw, 0.06)
+    cm = Costmap2D(200, 200, 0.05)
+    cm.costs[104, :] = LETHAL_OBSTACLE  # y 5.20 .. 5.25: the padded side (5.22) in it, the body's (5.17) not
+    plan = np.column_stack([np.linspace(5.0, 8.0, 61), np.linspace(5.0, 3.5, 61)])
+    assert footprint_cost(cm, 5.0, 5.0, 0.0, padded) < 0 <= footprint_cost(cm, 5.0, 5.0, 0.0, body)
+    tp = TrajectoryPlanner(seed_params(), padded)
+    cmd, cost, _ = tp.find_best_command(cm, 5.0, 5.0, 0.0, 0.0, 0.0, 0.0, plan)
+    assert cmd[0] <= 0.0 and cmd[2] == 0.0  # nothing but the escape, backing along the wall
+    tp = TrajectoryPlanner(seed_params(), padded, body=body)
+    cmd, cost, points = tp.find_best_command(cm, 5.0, 5.0, 0.0, 0.0, 0.0, 0.0, plan)
+    assert cost >= 0 and cmd[0] > 0.0 and cmd[2] < 0.0 and not tp.escaping
+    assert all(footprint_cost(cm, x, y, th, body) >= 0 for x, y, th in points)
+    assert footprint_cost(cm, *points[-1], padded) >= 0
+    # clear of the padding, the padded footprint alone judges again
+    cmd, cost, _ = tp.find_best_command(cm, 5.0, 4.9, 0.0, 0.0, 0.0, 0.0, plan)
+    assert not tp.in_padding and cost >= 0
 
 
 def test_no_route_to_the_goal_gives_a_negative_cost_and_zero_command():

@@ -22,6 +22,9 @@ from move_base.voxel_layer import MAX_Z_VOXELS
 DATA_TYPES = ("LaserScan", "PointCloud", "PointCloud2")
 MAP_TYPES = ("costmap", "voxel")
 
+BODY_PADDING = 0.01  # [m] the seed's footprint_padding: the Create's round body (0.1696 m) fills the footprint's
+# sides (0.16 m) with it; a larger footprint_padding is a margin the robot may use to leave a tight spot
+
 
 def _named(frame):
     return "must name a frame" if not frame else None
@@ -126,8 +129,9 @@ class CostmapConfig:
 
     @property
     def body(self):
-        """The footprint as configured, without footprint_padding: the robot's own outline (N, 2) [m]."""
-        return parse_footprint(self.params.footprint, self.params.robot_radius)
+        """The robot's own outline (N, 2) [m]: the footprint padded by at most BODY_PADDING."""
+        return pad_footprint(parse_footprint(self.params.footprint, self.params.robot_radius),
+                             min(self.params.footprint_padding, BODY_PADDING))
 
     @classmethod
     def read(cls, get):

@@ -597,14 +597,16 @@ class TrajectoryPlanner:
         params: :class:`PlannerParams`.
         footprint: (N, 2) footprint [m] in the base frame (fewer than 3 points: circular robot).
         inscribed_radius, circumscribed_radius: [m], informational (ROS passes them on too).
-        body: (M, 2) the robot's own outline [m] (the footprint without its padding; None: the
-            footprint), what must end clear of obstacles when the robot backs up out of a collision.
+        body: (M, 2) the robot's own outline [m] (the footprint without its margin; None: the
+            footprint): what must stay clear while a robot already within the margin of an
+            obstacle moves out of it, and end clear when it backs up out of a collision.
     """
 
     def __init__(self, params, footprint, inscribed_radius=0.0, circumscribed_radius=0.0, body=None):
         self.params = params
         self.footprint = np.asarray(footprint, dtype=float).reshape(-1, 2)
         self.body = self.footprint if body is None else np.asarray(body, dtype=float).reshape(-1, 2)
+        self.in_padding = False  # the robot stood within its padding, its body clear, this cycle
         self.inscribed_radius = float(inscribed_radius)
         self.circumscribed_radius = float(circumscribed_radius)
         self.path_dist = None  # (H, W) [cells] distance to the plan
@@ -763,11 +765,18 @@ class TrajectoryPlanner:
         else:
             pcx = pcy = np.empty(0, np.int64)
         impossible = float(costs.size)  # MapGrid::obstacleCosts
-        status, n_valid, path_d, goal_d, occ, head = _score_nb(
-            np.ascontiguousarray(points), np.asarray(steps, np.int64), np.asarray(dt, float), costs,
-            self.path_dist, self.goal_dist, self.footprint, costmap.origin_x, costmap.origin_y, costmap.resolution,
-            impossible, bool(p.heading_scoring), float(p.heading_scoring_timestep), bool(p.simple_attractor),
-            goal_x, goal_y, pcx, pcy)
+        steps = np.asarray(steps, np.int64)
+
+        def score(footprint):
+            return _score_nb(np.ascontiguousarray(points), steps, np.asarray(dt, float), costs, self.path_dist,
+                             self.goal_dist, footprint, costmap.origin_x, costmap.origin_y, costmap.resolution,
+                             impossible, bool(p.heading_scoring), float(p.heading_scoring_timestep),
+                             bool(p.simple_attractor), goal_x, goal_y, pcx, pcy)
+
+        scored = score(self.footprint)
+        if self.in_padding:
+            scored = self._out_of_padding(costmap, points, steps, scored, score(self.body))
+        status, n_valid, path_d, goal_d, occ, head = scored
         pdist_scale, gdist_scale = p.path_distance_bias, p.goal_distance_bias
         if p.meter_scoring:
             pdist_scale *= costmap.resolution
@@ -781,7 +790,6 @@ class TrajectoryPlanner:
         if p.min_person_distance > 0.0 and (len(self.people) or len(self.still_people)):
             from move_base.people_layer import approaches
 
-            steps = np.asarray(steps, np.int64)
             index = np.arange(points.shape[1])[None, :]
             times = np.where(index < steps[:, None], index * np.asarray(dt, float).reshape(-1, 1), np.inf)
             near = approaches(points, times, self.people, p.min_person_distance, brake=self._brake,
@@ -790,10 +798,29 @@ class TrajectoryPlanner:
             cost = np.where(near & (cost >= 0.0), PEOPLE_COST, cost)
         return cost, n_valid
 
+    def _out_of_padding(self, costmap, points, steps, padded, body):
+        """Florence: the robot already nearer an obstacle than its footprint's padding, its body
+        clear (a person stepped up to it, it stopped askew in a door), fails every sample at the
+        first pose, and could only back up. A trajectory is legal when the body stays clear along
+        it and the padded footprint is clear at its end (out of the margin within sim_time): the
+        scores of ``body`` replace those of ``padded`` (both :func:`_score_nb` tuples) there."""
+        ends = points[np.arange(len(points)), np.maximum(steps - 1, 0)]
+        ends_clear = np.array([footprint_cost(costmap, ex, ey, eth, self.footprint) >= 0
+                               for ex, ey, eth in ends[:, :3]], dtype=bool)
+        use = (padded[0] == -1) & (body[0] == 0) & ends_clear
+        return tuple(np.where(use, b, a) for a, b in zip(padded, body, strict=True))
+
+    def _note_padding(self, costmap, x, y, yaw):
+        """Whether the robot stands within its padding, its body clear (see :meth:`_out_of_padding`)."""
+        self.in_padding = (self.body is not self.footprint
+                           and footprint_cost(costmap, x, y, yaw, self.footprint) < 0
+                           <= footprint_cost(costmap, x, y, yaw, self.body))
+
     def check_trajectory(self, costmap, x, y, yaw, vx, vy, vth, vx_samp, vy_samp, vth_samp):
         """True when the command (vx_samp, vy_samp, vth_samp) simulated from the current pose and
         velocity is legal (TrajectoryPlanner::checkTrajectory; needs :meth:`update_plan` first)."""
         pts, steps, dt = self.generate_trajectories(x, y, yaw, vx, vy, vth, [(vx_samp, vy_samp, vth_samp)])
+        self._note_padding(costmap, x, y, yaw)
         self._brake = (float(x), float(y), float(yaw), float(vx), float(self.params.acc_lim_x))
         cost, _ = self.score_trajectories(costmap, pts, steps, dt)
         return bool(cost[0] >= 0.0)
@@ -820,6 +847,7 @@ class TrajectoryPlanner:
         """
         plan_xy = np.asarray(plan_xy, dtype=float).reshape(-1, 2)
         self.update_plan(costmap, plan_xy, x, y, yaw)
+        self._note_padding(costmap, x, y, yaw)
         self._brake = (float(x), float(y), float(yaw), float(vx), float(self.params.acc_lim_x))
         if goal_xy is None and len(plan_xy):
             goal_xy = plan_xy[-1]
