@@ -33,6 +33,7 @@ ROS Publishers:
 ROS Actions (client): move_base (move_base_msgs/MoveBaseAction).
 """
 
+import http.client
 import math
 import os
 import queue
@@ -109,7 +110,6 @@ class FlorenceLocatorNode:
         self.lock = threading.RLock()
         self.events = queue.Queue()  # actionlib's callbacks, handled by the tick thread
         self.last_save_error = ""
-        self.master = rosgraph.Master(rospy.get_name())
 
         self.tf_buffer = tf2_ros.Buffer(cache_time=rospy.Duration(10.0))
         self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
@@ -296,8 +296,10 @@ class FlorenceLocatorNode:
         if not server_ready_within(self.client, self.p.server_wait):
             return "move_base is not running (no action server move_base)"
         try:
-            _pubs, subs, services = self.master.getSystemState()
-        except (rosgraph.MasterError, OSError) as exc:
+            # a handle per call: one rosgraph.Master is one HTTP connection, and service calls come
+            # in on threads of their own (two at once raise http.client.CannotSendRequest)
+            _pubs, subs, services = rosgraph.Master(rospy.get_name()).getSystemState()
+        except (rosgraph.MasterError, OSError, http.client.HTTPException) as exc:
             return f"cannot ask the ROS master: {exc}"
         me = rospy.get_name()
         subs = {topic: set(nodes) - {me} for topic, nodes in subs}

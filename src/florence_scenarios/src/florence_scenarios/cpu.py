@@ -10,7 +10,9 @@ florence_scenarios.judge.cpu_per_node turns two samples into cores at real time.
 """
 
 import copy
+import http.client
 import threading
+import xmlrpc.client
 
 import rosgraph
 from florence_eval.metrics import cpu_seconds, node_pid
@@ -25,8 +27,12 @@ class CpuMeter:
         self.latest = {}  # node -> {pid: CPU s}
         self.pids = {}  # node -> pid it had when last looked up
         self.lock = threading.Lock()
+        # one sample at a time: the rosgraph.Master handle is one xmlrpc.client.ServerProxy, one HTTP
+        # connection; two threads on it at once raise http.client.CannotSendRequest ("Request-sent")
+        self._sampling = threading.Lock()
         self._stop = threading.Event()
         self._thread = None
+        self.error = None  # the last error of the meter's own thread, if any
 
     def nodes(self):
         """Names of every node registered with the master (publishers, subscribers, services)."""
@@ -37,7 +43,12 @@ class CpuMeter:
         return sorted(names - self.exclude)
 
     def sample(self):
-        """Read the CPU time of every node now; returns a copy of {node: {pid: CPU s}}."""
+        """Read the CPU time of every node now; returns a copy of {node: {pid: CPU s}}. Safe to call
+        from any thread while the meter's own thread samples."""
+        with self._sampling:
+            return self._sample()
+
+    def _sample(self):
         for node in self.nodes():
             try:
                 pid = node_pid(self.uri, node, caller="/cpu_meter")
@@ -59,7 +70,10 @@ class CpuMeter:
 
     def _run(self):
         while not self._stop.wait(self.period):
-            self.sample()
+            try:
+                self.sample()
+            except (OSError, xmlrpc.client.Error, http.client.HTTPException) as e:  # master busy or going down
+                self.error = f"{type(e).__name__}: {e}"
 
     def start(self):
         self._thread = threading.Thread(target=self._run, name="cpu meter", daemon=True)
