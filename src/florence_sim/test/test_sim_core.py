@@ -460,6 +460,26 @@ def test_a_person_walks_on_past_the_robot_beside_their_way():
     assert r.x < 2.0 and r.vx == 0.0
 
 
+def test_a_person_never_steps_into_the_robot_beside_them():
+    """A robot that came to stand just beside a walking person's way, outside their WAIT_CONE (72
+    deg off their heading when they would come within TOUCH_GAP of it): they wait rather than walk
+    into its side, and walk on once it has gone."""
+    from florence_sim.people import TOUCH_GAP, WAIT_CONE
+
+    p = Person("a", path=[(1.8, 0.0), (4.0, 0.0)], speed=1.0, mode="once")
+    robot = (2.0, 0.4, 0.17)
+    assert math.atan2(robot[1], robot[0] - p.x) > WAIT_CONE  # not heading at it from the start
+    least = math.inf
+    for _ in range(200):
+        p.step(DT, keep_clear=robot)
+        least = min(least, math.hypot(p.x - robot[0], p.y - robot[1]))
+    assert least >= robot[2] + p.radius + TOUCH_GAP - 1e-9
+    assert p.x < 2.0 and p.vx == 0.0
+    for _ in range(400):
+        p.step(DT, keep_clear=(2.0, 3.0, 0.17))
+    assert p.x == pytest.approx(4.0)
+
+
 @pytest.mark.parametrize("mode", ["back_and_forth", "loop"])
 def test_a_person_kept_waiting_turns_back_after_their_patience(mode):
     """Head-on with a robot that does not move, a person waits PATIENCE seconds, then walks their

@@ -43,6 +43,11 @@ WAIT_CONE = math.radians(60.0)
 # half a metre from a robot that does not move, and a robot and a person waiting for each other in
 # a corridor would otherwise both wait until the robot gives up.
 PATIENCE = 10.0
+# Whichever way they head, nobody walks into the robot: a step that would bring a person within
+# this gap [m] of its body (radius + theirs + TOUCH_GAP between centres), nearer than before,
+# waits too. Without it a person passing beside the robot (outside WAIT_CONE) walked on into its
+# side, and a robot moving out of their way was counted a collision it could not avoid.
+TOUCH_GAP = 0.05
 # Body parts of a person HEIGHT tall of build 1, in the person's frame (x forward, y left, z up):
 # name, x [m], y [m], radius [m], bottom z [m], top z [m], colour (None: the shirt's), swing sign
 # (a walking person's legs swing forward by +-SWING * sin(phase)).
@@ -103,8 +108,8 @@ class Person:
     def step(self, dt, keep_clear=None):
         """Advance the walk by ``dt`` [s]. ``keep_clear`` = (x, y, radius) [m] of something
         (the robot) the person does not walk into: they wait while it is in the way (their step
-        would bring them within its radius + theirs + GAP, heading at it: :data:`WAIT_CONE`), and
-        turn back after :data:`PATIENCE`."""
+        would bring them within its radius + theirs + GAP, heading at it: :data:`WAIT_CONE`; or
+        within :data:`TOUCH_GAP` of it, whichever way), and turn back after :data:`PATIENCE`."""
         self.vx = self.vy = 0.0
         if not self.walking:
             return
@@ -116,7 +121,8 @@ class Person:
             step_x, step_y = self.x - saved[0], self.y - saved[1]
             to_x, to_y = keep_clear[0] - saved[0], keep_clear[1] - saved[1]
             heads_at = step_x * to_x + step_y * to_y > math.cos(WAIT_CONE) * math.hypot(step_x, step_y) * before
-            if after < keep_clear[2] + self.radius + GAP and after < before and heads_at:
+            touches = after < keep_clear[2] + self.radius + TOUCH_GAP
+            if after < before and (touches or (after < keep_clear[2] + self.radius + GAP and heads_at)):
                 (self.x, self.y, self.yaw, self.target, self.direction, self.wait, self.phase,
                  self.finished) = saved
                 self.vx = self.vy = 0.0
