@@ -282,7 +282,7 @@ class PeopleAdapter:
         (people_layer.give_way_cells on a navfn potential from the robot over the global costmap),
         or None."""
         costmap = self.node.planner_costmap
-        blockers, _ = self._blockers(pose, 2.0)
+        blockers, tracked = self._blockers(pose, 2.0)
         if not len(blockers):
             return None
         with costmap.lock:
@@ -297,6 +297,9 @@ class PeopleAdapter:
         if target is None:
             rospy.loginfo(LOG + "no place to give way to the people from (%.2f, %.2f)", pose[0], pose[1])
             return None
+        rospy.loginfo(LOG + "giving way from (%.2f, %.2f) to (%.2f, %.2f): %d tracked people, %d unmapped points "
+                      "within 2 m; %s", pose[0], pose[1], target[0], target[1], tracked, len(blockers) - tracked,
+                      self._describe(pose, blockers, tracked))
         return target[0], target[1], math.atan2(target[1] - pose[1], target[0] - pose[0])
 
     def plan_to(self, start, pose):
