@@ -89,7 +89,7 @@ class OccupancyCounts:
         return data, (float(lo[0] * self.delta), float(lo[1] * self.delta))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _trace(hits, visits, ox, oy, lox, loy, ex, ey, hit, delta):
     """Bresenham from the laser's cell to each end cell: visits before the end, a hit at the end if ``hit``."""
     x0 = math.floor(lox / delta) - ox

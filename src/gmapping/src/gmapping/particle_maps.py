@@ -144,13 +144,13 @@ class ParticleMaps:
         return hits, mean_x, mean_y, (float(origin[0]), float(origin[1]))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _take_patch(pool, free, n_free):
     n_free[0] -= 1
     return free[n_free[0]]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _register(pool, refs, free, n_free, index, ox, oy, poses, rows, lx, ly, bcos, bsin, ranges, usable, delta,
               start, worst):
     """Register the scan into the maps of particles start.. ; returns the first particle not done (the pool

@@ -38,7 +38,7 @@ ELONGATED = 4.0  # a surface whose spread along is this many times its spread ac
 SURFACE_REACH = 1.5  # [cells] the window's cells whose mean lies this near the nearest one's make its surface
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, nogil=True, inline="always")
 def _patch(index, ox, oy, p, cx, cy):
     """Patch id holding cell (cx, cy) in particle p's map, -1 if none."""
     qx = (cx >> PATCH_BITS) - ox
@@ -48,7 +48,7 @@ def _patch(index, ox, oy, p, cx, cy):
     return index[p, qy, qx]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _match_beams(pool, index, ox, oy, p, x, y, th, lx, ly, bcos, bsin, ranges, usable, delta, sigma, kernel,
                  lskip, lsigma):
     """(score, likelihood, matched beams) of particle p's scan at pose (x, y, th)."""
@@ -161,7 +161,7 @@ def _match_beams(pool, index, ox, oy, p, x, y, th, lx, ly, bcos, bsin, ranges, u
     return score, like, matched
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _optimize(pool, index, ox, oy, p, x, y, th, lx, ly, bcos, bsin, ranges, usable, delta, sigma, kernel, lskip,
               lsigma, lstep, astep, iterations):
     """GMapping's hill climb from (x, y, th): (x, y, th, best score)."""
@@ -202,7 +202,7 @@ def _optimize(pool, index, ox, oy, p, x, y, th, lx, ly, bcos, bsin, ranges, usab
     return x, y, th, best
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _match_all(pool, index, ox, oy, poses, lx, ly, bcos, bsin, ranges, usable, delta, sigma, kernel, lskip, lsigma,
                lstep, astep, iterations, minimum_score, out_poses, out_score, out_like, out_matched):
     for p in range(poses.shape[0]):
