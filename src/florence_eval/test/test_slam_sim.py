@@ -37,7 +37,7 @@ def mapped(ros_master, rospy_node, tf_buffer, tmp_path_factory):
     nobody = folder / "nobody.yaml"
     nobody.write_text("people: []\n")
     stack = roslaunch(ros_master, "gmapping", "build_map.launch", "sim:=true", f"people:={nobody}",
-                      "real_time_factor:=3.0", "seed:=1", "slam_seed:=1",
+                      "real_time_factor:=2.0", "seed:=1", "slam_seed:=1",
                       f"x:={START[0]}", f"y:={START[1]}", f"yaw:={START[2]}")
     session = MappingSession(tf_buffer)
     try:
