@@ -26,10 +26,10 @@ class CpuMeter:
         self.period = period  # [s, wall]
         self.latest = {}  # node -> {pid: CPU s}
         self.pids = {}  # node -> pid it had when last looked up
+        # one sample at a time (it guards pids and latest too): the rosgraph.Master handle is one
+        # xmlrpc.client.ServerProxy, one HTTP connection; two threads on it at once raise
+        # http.client.CannotSendRequest ("Request-sent")
         self.lock = threading.Lock()
-        # one sample at a time: the rosgraph.Master handle is one xmlrpc.client.ServerProxy, one HTTP
-        # connection; two threads on it at once raise http.client.CannotSendRequest ("Request-sent")
-        self._sampling = threading.Lock()
         self._stop = threading.Event()
         self._thread = None
         self.error = None  # the last error of the meter's own thread, if any
@@ -45,27 +45,17 @@ class CpuMeter:
     def sample(self):
         """Read the CPU time of every node now; returns a copy of {node: {pid: CPU s}}. Safe to call
         from any thread while the meter's own thread samples."""
-        with self._sampling:
-            return self._sample()
-
-    def _sample(self):
-        for node in self.nodes():
-            try:
-                pid = node_pid(self.uri, node, caller="/cpu_meter")
-            except Exception:  # noqa: BLE001 - a node that just went away
-                continue
-            with self.lock:
-                self.pids[node] = pid
         with self.lock:
-            known = list(self.pids.items())
-        for node, pid in known:
-            try:
-                cpu = cpu_seconds(pid)
-            except (OSError, IndexError, ValueError):
-                continue  # gone: its last sample stands
-            with self.lock:
-                self.latest.setdefault(node, {})[pid] = cpu
-        with self.lock:
+            for node in self.nodes():
+                try:
+                    self.pids[node] = node_pid(self.uri, node, caller="/cpu_meter")
+                except Exception:  # noqa: BLE001 - a node that just went away
+                    continue
+            for node, pid in self.pids.items():
+                try:
+                    self.latest.setdefault(node, {})[pid] = cpu_seconds(pid)
+                except (OSError, IndexError, ValueError):
+                    continue  # gone: its last sample stands
             return copy.deepcopy(self.latest)
 
     def _run(self):
