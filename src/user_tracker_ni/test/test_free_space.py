@@ -1,5 +1,6 @@
 """The laser's free-space memory: floor a beam passed through is free; where beams end is not;
-a walker's next step is in free floor, a static leg's cell never is."""
+a walker's next step is in free floor, a static leg's cell never is, nor the cell beside a leg
+that stood still for a while."""
 
 import math
 
@@ -46,6 +47,32 @@ def test_a_walkers_next_step_is_free_a_static_legs_cell_never_is():
         fs.update(t, (0.0, 0.0), ends, hit)
         t += 0.1
     assert before.tolist() == [True, False]
+
+
+def test_a_still_persons_leg_a_cell_aside_is_not_free_a_walkers_stance_is():
+    """A leg that stood at (2, 0.5) for 3 s, seen 6 cm aside (the robot's odometry drifted while it
+    looked away): that cell was floor the beams passed beside the leg, but its neighbour ended
+    beams steadily, so it is no newcomer. A walker's leg planted for 4 scans at (2, -0.5) leaves
+    its next cell free, and so is the leg's cell before anything stood there."""
+    p = FreeSpaceParams()
+    fs = FreeSpace(p)
+    t = 0.0
+    for _ in range(30):
+        ends, hit = scan_with([(2.0, 0.5, 0.06)])
+        fs.update(t, (0.0, 0.0), ends, hit)
+        t += 0.1
+    aside = [2.0, 0.5 + 0.06 + 0.5 * p.resolution]
+    alone = FreeSpace(FreeSpaceParams(neighbourhood=0))
+    alone.free[:], alone.occupied[:], alone.origin = fs.free, fs.occupied, fs.origin
+    assert alone.in_free_space([aside])[0]  # its own cell alone says free ...
+    assert not fs.in_free_space([aside])[0]  # ... its neighbour does not
+    for k in range(4):  # a stance of 0.4 s at (2, -0.5), then the next step 0.3 m on
+        if k == 0:
+            assert fs.in_free_space([[2.0, -0.5]])[0]
+        ends, hit = scan_with([(2.0, 0.5, 0.06), (2.0, -0.5, 0.06)])
+        fs.update(t, (0.0, 0.0), ends, hit)
+        t += 0.1
+    assert fs.in_free_space([[2.0, -0.2], [2.0, -0.5 + 0.06 + 0.5 * p.resolution]]).tolist() == [True, True]
 
 
 def test_the_memory_fades_and_follows_the_robot():

@@ -116,6 +116,56 @@ def test_laser_alone_confirms_only_legs_that_walk():
     assert walker.pid is not None  # no colour yet: a new persistent id after id_wait
 
 
+def test_a_person_who_stops_in_free_floor_is_confirmed_by_the_laser_alone():
+    """A resident walks 0.2 m and halts in front of the robot, too near for the Kinect: her legs
+    stand where the laser saw free floor, so the dwell rule confirms her after laser_dwell_hits
+    scans; the same legs where the beams always ended (a table's) never confirm."""
+    rng = np.random.default_rng(11)
+    p = TrackerParams()
+    tracker = Tracker(p)
+    t, confirmed_at = 0.0, None
+    for k in range(30):
+        x = 1.0 + 0.05 * min(k, 4)  # 0.2 m, then still
+        tracker.update(t, [laser(x, 0.5, rng), laser(3.0, 3.0, rng, free=False)], LASER)
+        people = tracker.people()
+        if people and confirmed_at is None:
+            confirmed_at = k
+        t += 0.1
+    assert confirmed_at == p.laser_dwell_hits - 1  # her 10th scan
+    (person,) = tracker.people()
+    assert person.position == pytest.approx((1.2, 0.5), abs=0.1)
+    assert person.travelled < p.laser_confirm_distance
+
+
+def test_a_dwelling_track_needs_nearly_all_its_legs_in_free_floor():
+    """Legs that were in free floor in 8 of 10 scans (a chair leg at the edge of the floor the
+    laser saw) are not confirmed by the dwell rule (90 %), nor by the walking one (no travel)."""
+    rng = np.random.default_rng(12)
+    tracker = Tracker()
+    t = 0.0
+    for k in range(10):
+        tracker.update(t, [laser(2.0, 1.0, rng, free=k % 5 != 0)], LASER)
+        t += 0.1
+    assert tracker.people() == [] and len(tracker.tracks) == 1
+
+
+def test_people_are_every_confirmed_track_published_or_not():
+    """people() has a laser-confirmed walker at once; published() only once it has an id
+    (id_wait after its confirmation), under the same ni id."""
+    rng = np.random.default_rng(13)
+    p = TrackerParams()
+    tracker = Tracker(p)
+    t, seen = 0.0, []
+    for k in range(40):
+        tracker.update(t, [laser(0.05 * k, 2.0, rng)], LASER)
+        seen.append((t, [tr.ni_id for tr in tracker.people()], [tr.ni_id for tr in tracker.published()]))
+        t += 0.1
+    first_person = next(t for t, people, _ in seen if people)
+    first_user = next(t for t, _, users in seen if users)
+    assert first_user - first_person == pytest.approx(p.id_wait, abs=0.11)
+    assert seen[-1][1] == seen[-1][2] and len(seen[-1][1]) == 1
+
+
 def test_a_person_back_beside_the_robot_gets_their_id_once_the_kinect_sees_them():
     """Red is seen by the Kinect, leaves, and comes back beside the robot, where only the laser
     sees her walking legs: a provisional id, then her own once the Kinect sees her shirt; a blue

@@ -119,6 +119,11 @@ TRACKER = ParamTable(
           ge=0, le=1),
     Param("tracker/laser_hit_share", float, TrackerParams.laser_hit_share,
           "... seen in at least this share of the scans since it started", ge=0, le=1),
+    Param("tracker/laser_dwell_hits", int, TrackerParams.laser_dwell_hits,
+          "detections in free floor that confirm a track the laser started that stays put (somebody stopped) ...",
+          ge=1),
+    Param("tracker/laser_dwell_free_share", float, TrackerParams.laser_dwell_free_share,
+          "... when at least this share of its detections lay in free floor", ge=0, le=1),
     Param("tracker/max_speed", float, TrackerParams.max_speed,
           "a tentative track takes no detection farther than this speed allows (no hopping between chair legs)",
           unit="m/s", gt=0),
@@ -170,6 +175,10 @@ FREE = ParamTable(
     Param("free/margin", float, FreeSpaceParams.margin, "a beam marks free space up to this short of its end",
           unit="m", gt=0),
     Param("free/max_range", float, FreeSpaceParams.max_range, "returns beyond are not used for it", unit="m", gt=0),
+    Param("free/neighbourhood", int, FreeSpaceParams.neighbourhood,
+          "cells: a point is not free when a cell this near ended beams steadily ...", ge=0),
+    Param("free/steady_scans", float, FreeSpaceParams.steady_scans,
+          "... in at least this many scans (faded; a still person, not a walker's step)", gt=0),
 )
 
 MAP = ParamTable(

@@ -22,9 +22,14 @@ Life of a track:
   it is confirmed only once it has moved ``laser_confirm_distance`` from where it started, as a
   pair of walking legs does, and at least ``laser_free_hits`` of its detections, and most of them
   (``laser_free_share``), lay in floor the laser had seen free before (a person walks into free
-  floor; a track hopping between chair legs or sliding along a wall never does). Furniture legs,
-  walls and a still person's legs never confirm by the laser alone (a still person is confirmed
-  by the Kinect and then kept by the laser).
+  floor; a track hopping between chair legs or sliding along a wall never does). A pair of legs
+  that stays put is confirmed too once ``laser_dwell_hits`` of its detections, and nearly all of
+  them (``laser_dwell_free_share``), lay in floor seen free before: somebody walked there and
+  stopped (a resident who halts in front of the robot before walking the confirming distance,
+  too near for the Kinect to see their upper body). Furniture legs, walls and the legs of a
+  person who stood there before the laser saw the floor never confirm by the laser alone (their
+  cells end the laser's beams; such a person is confirmed by the Kinect and then kept by the
+  laser).
 - A confirmed track is kept by either sensor: a person who leaves the Kinect's view (close up,
   or beside the robot) stays tracked while the laser sees their legs.
 - A track no sensor has updated for ``timeout`` (confirmed) or ``tentative_timeout``
@@ -95,6 +100,8 @@ class TrackerParams:
     laser_free_hits: int = 5  # ... with at least this many of its detections in free floor ...
     laser_free_share: float = 0.6  # ... and at least this share of them, seen in at least ...
     laser_hit_share: float = 0.7  # ... this share of the scans since it started
+    laser_dwell_hits: int = 10  # laser detections in free floor that confirm a laser-started track that stays put ...
+    laser_dwell_free_share: float = 0.9  # ... when at least this share of its detections lay in free floor
     max_speed: float = 2.0  # [m/s] a tentative track takes no detection farther than this speed allows
     unseen_timeout: float = 1.0  # [s] a track in the Kinect's clear view it did not detect for this long is dropped
     coast_limit: float = 0.3  # [s] a published position extrapolates at most this long past the last update
@@ -123,6 +130,8 @@ class TrackerParams:
             raise ValueError("need 1 <= confirm_hits <= confirm_window, max_tracks >= 1, 0 <= id_wait <= id_wait_max")
         if self.laser_free_hits < 0 or not 0 <= self.laser_free_share <= 1 or not 0 <= self.laser_hit_share <= 1:
             raise ValueError("need laser_free_hits >= 0, laser_free_share and laser_hit_share within 0..1")
+        if self.laser_dwell_hits < 1 or not 0 <= self.laser_dwell_free_share <= 1:
+            raise ValueError("need laser_dwell_hits >= 1 and laser_dwell_free_share within 0..1")
         if not self.max_speed > 0:
             raise ValueError(f"max_speed must be > 0, got {self.max_speed}")
         if self.appearance_weight < 0 or not 0 < self.appearance_gate <= 1 or self.appearance_after < 1:
@@ -282,6 +291,11 @@ class Tracker:
         return sorted((tr for tr in self.tracks if tr.confirmed and tr.pid is not None and not tr.superseded),
                       key=lambda tr: tr.pid)
 
+    def people(self):
+        """Every confirmed track, identified or not (``pid`` None while it waits for its colours), by
+        ``ni_id``: where people are, for costmaps and safety, where who it is does not matter."""
+        return sorted((tr for tr in self.tracks if tr.confirmed and not tr.superseded), key=lambda tr: tr.ni_id)
+
     # --- internals --------------------------------------------------------------------------------------
     def _unambiguous(self, dets, gate):
         """Leg pairs within the gate of one confirmed track at most: where two people are close (they
@@ -366,11 +380,12 @@ class Tracker:
         p = self.params
         if not track.confirmed:
             by_kinect = track.kinect_hits >= p.confirm_hits
-            by_laser = (track.origin == LASER and track.travelled >= p.laser_confirm_distance
-                        and track.free_hits >= p.laser_free_hits
-                        and track.free_hits >= p.laser_free_share * track.laser_hits
-                        and track.laser_hits >= p.laser_hit_share * track.laser_frames)
-            if by_kinect or by_laser:
+            seen = track.origin == LASER and track.laser_hits >= p.laser_hit_share * track.laser_frames
+            walked = (track.travelled >= p.laser_confirm_distance and track.free_hits >= p.laser_free_hits
+                      and track.free_hits >= p.laser_free_share * track.laser_hits)
+            stopped = track.free_hits >= p.laser_dwell_hits and track.free_hits >= p.laser_dwell_free_share \
+                * track.laser_hits
+            if by_kinect or (seen and (walked or stopped)):
                 track.confirmed_at = track.id_wait_from = t
                 track.ni_id = next(self._ni_ids)
         if track.confirmed and track.pid is None:
