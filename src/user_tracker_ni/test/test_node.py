@@ -1,6 +1,6 @@
 """user_tracker_ni_node on a private master, fed synthetic Kinect frames and scans: a person in
-view is published on tracked_users, as a tf frame and as markers; bad input (NaN images, a
-camera_info of another size, millimetre images, colour without depth, a frame with no transform,
+view is published on tracked_users (and tracked_people), as a tf frame and as markers; bad input
+(NaN images, a camera_info of another size, millimetre images, colour without depth, a frame with no transform,
 NaN/inf scans) is skipped with a reason and tracking goes on; Stop and Start keep their meaning."""
 
 import math
@@ -118,9 +118,12 @@ def _person_scene():
 def test_a_person_in_view_is_published_with_a_frame_and_markers(tracker, rospy_node, tf_buffer):
     from visualization_msgs.msg import MarkerArray
 
+    from user_tracker_ni.msg import TrackedUsers
+
     node, pubs, got = tracker
-    markers = []
+    markers, people = [], []
     sub = rospy_node.Subscriber("/user_tracker_ni_node/markers", MarkerArray, markers.append)
+    people_sub = rospy_node.Subscriber("/tracked_people", TrackedUsers, people.append, queue_size=100)
     try:
         depth, rgb = _person_scene()
         msg = _feed_until(node, pubs, got, lambda m: m.num_users_tracked == 1, "one user",
@@ -134,8 +137,14 @@ def test_a_person_in_view_is_published_with_a_frame_and_markers(tracker, rospy_n
         t = tf_buffer.lookup_transform("odom", frame, rospy_node.Time(0)).transform.translation
         assert (t.x, t.y) == pytest.approx((3.5, 2.3), abs=0.1)
         wait_for(lambda: any(m.ns == "users" for a in markers for m in a.markers), 10, what="markers")
+        # tracked_people: the same person under her per-appearance id
+        wait_for(lambda: any(m.num_users_tracked for m in people), 10, what="tracked_people")
+        everyone = [m for m in people if m.num_users_tracked][-1]
+        assert list(everyone.user_ids) == list(everyone.user_ids_ni) == list(msg.user_ids_ni)
+        assert (everyone.positions[0].x, everyone.positions[0].y) == pytest.approx((3.5, 2.3), abs=0.1)
     finally:
         sub.unregister()
+        people_sub.unregister()
 
 
 def test_bad_input_is_skipped_with_a_reason_and_tracking_goes_on(tracker, rospy_node):

@@ -16,6 +16,12 @@ ROS Publishers:
     tracked_users (user_tracker_ni/TrackedUsers): the confirmed users after every depth frame (the
         camera rate); after every scan instead while no depth frame came for
         ~publish_on_scans_after. While stopped: an empty message at the same rate.
+    tracked_people (user_tracker_ni/TrackedUsers): with every tracked_users message, every
+        confirmed person, also those not yet identified (a person the laser found beside or
+        close in front of the robot waits up to ~tracker/id_wait_max for the Kinect to see who
+        it is before tracked_users shows them); user_ids are the per-appearance ids (as
+        user_ids_ni), which a track keeps from its confirmation to its end. For move_base's
+        costmaps and anything else that needs where people are, not who.
     ~markers (visualization_msgs/MarkerArray): a cylinder and a label "id (ni id)" per user, an arrow the way
         they face when it is known.
     /tf: user_<user_id> per user, child of ~fixed_frame (with ~publish_tf).
@@ -89,6 +95,7 @@ class UserTrackerNode:
         self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
         self.tf_out = tf2_ros.TransformBroadcaster() if v["publish_tf"] else None
         self.pub = rospy.Publisher("tracked_users", TrackedUsers, queue_size=5)
+        self.people_pub = rospy.Publisher("tracked_people", TrackedUsers, queue_size=5)
         self.markers = rospy.Publisher("~markers", MarkerArray, queue_size=2)
         self.diag = Diagnostics("user_tracker_ni")
         self.depth_rate = self.diag.frequency("Depth frames", 5.0, 60.0)
@@ -253,32 +260,40 @@ class UserTrackerNode:
 
     # --- outputs ----------------------------------------------------------------------------------------
     def _publish(self, stamp):
-        msg = TrackedUsers(stamp=stamp, frame_id=self.fixed)
-        sensors = []  # uint8[]: rospy wants bytes, built once at the end
         with self.lock:
-            tracks = self.tracker.published() if self.tracking else []
-            now = stamp.to_sec()
-            for tr in tracks:
-                x, y = tr.output(self.tracker.params.coast_limit)
-                vx, vy = tr.velocity
-                msg.user_ids.append(tr.pid)
-                msg.user_ids_ni.append(tr.ni_id)
-                msg.positions.append(Point(x, y, 0.85))
-                msg.velocities.append(Vector3(vx, vy, 0.0))
-                facing = tr.facing(self.tracker.params)
-                msg.facings.append(math.nan if facing is None else facing)
-                seen = max(t for t in (tr.last_kinect, tr.last_laser) if t is not None)
-                msg.last_seen.append(rospy.Time.from_sec(seen))
-                sensors.append((1 if tr.last_kinect is not None and now - tr.last_kinect <= RECENT else 0)
-                               | (2 if tr.last_laser is not None and now - tr.last_laser <= RECENT else 0))
-        msg.sensors = bytes(sensors)
-        msg.num_users_tracked = len(msg.user_ids)
+            users = self.tracker.published() if self.tracking else []
+            people = self.tracker.people() if self.tracking else []
+            msg = self._message(stamp, users, [tr.pid for tr in users])
+            everyone = self._message(stamp, people, [tr.ni_id for tr in people])
         self.pub.publish(msg)
+        self.people_pub.publish(everyone)
         if self.tf_out is not None and msg.user_ids:
             self.tf_out.sendTransform([transform_stamped(stamp, self.fixed, f"{self.values['frame_prefix']}{pid}",
                                                          p.x, p.y, 0.0, z=p.z)
                                        for pid, p in zip(msg.user_ids, msg.positions, strict=True)])
         self._publish_markers(msg)
+
+    def _message(self, stamp, tracks, ids):
+        """TrackedUsers of ``tracks`` under ``ids`` (call under the lock)."""
+        msg = TrackedUsers(stamp=stamp, frame_id=self.fixed)
+        sensors = []  # uint8[]: rospy wants bytes, built once at the end
+        now = stamp.to_sec()
+        for tr, pid in zip(tracks, ids, strict=True):
+            x, y = tr.output(self.tracker.params.coast_limit)
+            vx, vy = tr.velocity
+            msg.user_ids.append(pid)
+            msg.user_ids_ni.append(tr.ni_id)
+            msg.positions.append(Point(x, y, 0.85))
+            msg.velocities.append(Vector3(vx, vy, 0.0))
+            facing = tr.facing(self.tracker.params)
+            msg.facings.append(math.nan if facing is None else facing)
+            seen = max(t for t in (tr.last_kinect, tr.last_laser) if t is not None)
+            msg.last_seen.append(rospy.Time.from_sec(seen))
+            sensors.append((1 if tr.last_kinect is not None and now - tr.last_kinect <= RECENT else 0)
+                           | (2 if tr.last_laser is not None and now - tr.last_laser <= RECENT else 0))
+        msg.sensors = bytes(sensors)
+        msg.num_users_tracked = len(msg.user_ids)
+        return msg
 
     def _publish_markers(self, msg):
         out = MarkerArray()
