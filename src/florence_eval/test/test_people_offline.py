@@ -25,6 +25,18 @@ def test_scenario_meets_the_bench_targets(name):
 
 
 @pytest.mark.timeout(300)
+def test_a_walker_by_the_driving_robot_is_on_tracked_people():
+    """A resident held up just behind and beside the robot, mostly out of the Kinect's view: the
+    laser confirms her walking and standing (0.71 of the frames with the walking rule alone), and
+    tracked_people, which move_base reads, has her in >= 90 % of the frames she is near."""
+    (scenario,) = by_name(["walker_by_the_robot"])
+    result = people_offline.evaluate(scenario, people_offline.run(scenario, seed=1))
+    assert result["near_frames"] > 300, result
+    assert result["near_tracked_share"] >= 0.9, result
+    assert result["false_positives"] == 0 and result["id_switches"] == 0, result
+
+
+@pytest.mark.timeout(300)
 def test_clutter_alone_makes_no_track():
     (scenario,) = by_name(["clutter_only"])
     result = people_offline.evaluate(scenario, people_offline.run(scenario, seed=1))

@@ -32,6 +32,7 @@ class Run:
     """What the tracker published and what truly happened, stamped in simulated time."""
 
     tracks: list  # (t, {pid: (x, y) odom}, {pid: ni id})
+    everyone: list  # (t, {ni id: (x, y) odom}, {ni id: ni id}): every confirmed person (tracked_people)
     people: list  # (t, {person: (x, y) map})
     truth: tuple  # (times [N], poses [N, 3]) map
     odom: tuple  # (times [N], poses [N, 3]) odom
@@ -75,7 +76,7 @@ def run(scenario, seed=1, camera=None, params=None, world=None, use_map=True, wa
     else:
         pipeline.reset()
         pipeline.free.reset()  # another simulator: its odometry frame starts anew
-    out = Run([], [], ([], []), ([], []), pipeline.counts, people_metrics.LineOfSight(sim.world.scene))
+    out = Run([], [], [], ([], []), ([], []), pipeline.counts, people_metrics.LineOfSight(sim.world.scene))
     plan = [(v, w, s) for v, w, s in scenario.drive]
     plan_end, command = warmup, (0.0, 0.0)
     while sim.time < scenario.seconds + warmup:
@@ -102,6 +103,9 @@ def run(scenario, seed=1, camera=None, params=None, world=None, use_map=True, wa
             limit = pipeline.tracker.params.coast_limit
             out.tracks.append((t, {tr.pid: tr.output(limit) for tr in published},
                                {tr.pid: tr.ni_id for tr in published}))
+            everyone = pipeline.tracker.people()
+            out.everyone.append((t, {tr.ni_id: tr.output(limit) for tr in everyone},
+                                 {tr.ni_id: tr.ni_id for tr in everyone}))
             out.people.append((t, {p.id: (p.x, p.y) for p in sim.people.values()}))
             out.truth[0].append(t)
             out.truth[1].append((b.x, b.y, b.yaw))
@@ -119,11 +123,12 @@ def apartment_map():
     return StaticMap(np.asarray(grid.data).reshape(grid.height, grid.width), grid.resolution, grid.origin)
 
 
-def frames(result, since=0.5, view=None):
-    """people_metrics.Frame of a run's tracker outputs after ``since`` [s]."""
+def frames(result, since=0.5, view=None, everyone=False):
+    """people_metrics.Frame of a run's tracker outputs after ``since`` [s] (``everyone``: of every
+    confirmed person, tracked_people, instead of the identified users, tracked_users)."""
     truth = (np.array(result.truth[0]), np.array(result.truth[1]).reshape(-1, 3))
     odom = (np.array(result.odom[0]), np.array(result.odom[1]).reshape(-1, 3))
-    msgs = [m for m in result.tracks if m[0] >= since]
+    msgs = [m for m in (result.everyone if everyone else result.tracks) if m[0] >= since]
     return people_metrics.frames(msgs, result.people, truth, odom, view or people_metrics.KinectView(), result.visible)
 
 
@@ -142,6 +147,25 @@ def beside_share(frame_list, gate=0.5):
     return len(beside), (tracked / len(beside) if beside else None)
 
 
+# where the laser (0.057 m ahead of the base, 180 deg) sees a person near the robot, the Kinect
+# or not: whom move_base must keep its distance from
+NEAR_VIEW = people_metrics.KinectView(x=0.057, y=0.0, near=0.3, far=1.5, hfov=math.radians(180),
+                                      margin=math.radians(5))
+
+
+def near_share(frame_list, gate=0.5):
+    """(person-frames of people in NEAR_VIEW, share of them with a track within ``gate`` [m]);
+    ``frame_list``: people_metrics.frames with ``view=NEAR_VIEW``."""
+    seen = tracked = 0
+    for f in frame_list:
+        for pid, (x, y) in f.truth.items():
+            if not f.care[pid]:
+                continue
+            seen += 1
+            tracked += any(math.hypot(hx - x, hy - y) < gate for hx, hy in f.tracks.values())
+    return seen, (tracked / seen if seen else None)
+
+
 def evaluate(scenario, result):
     """people_metrics.evaluate of a run, with the beside-the-robot share and, in the clutter-only
     scenario, every persistent id ever published."""
@@ -151,5 +175,8 @@ def evaluate(scenario, result):
         summary["beside_frames"], summary["beside_tracked_share"] = beside_share(fl)
     if scenario.clutter:
         summary["tracks_seen"] = sorted({pid for f in fl for pid in f.tracks})
+    if scenario.near:
+        summary["near_frames"], summary["near_tracked_share"] = near_share(
+            frames(result, view=NEAR_VIEW, everyone=True))
     summary["detections"] = dict(result.detections)
     return summary

@@ -29,6 +29,7 @@ class Scenario:
     drive: list = field(default_factory=list)
     beside: bool = False  # judge the share of frames a person beside the robot (laser only) is tracked
     clutter: bool = False  # nobody: every track is a false positive
+    near: bool = False  # judge the share of frames people near the robot (laser's view) are on tracked_people
 
 
 def shipped_people():
@@ -70,6 +71,13 @@ SCENARIOS = [
     # looking toward the kitchen, then turning to the corridor
     Scenario("residents", (1.0, 3.2, -0.2), shipped_people(), 60.0,
              drive=[(0.0, 0.0, 30.0), (0.0, 0.4, 2.0)]),
+    # the robot drives along the living room with a resident walking just behind it, held up by it
+    # (her way passes where it drives), beside it while it turns round, then turning back and coming
+    # again: near the robot, mostly out of the Kinect's view, walking and standing; whom move_base
+    # must keep clear of
+    Scenario("walker_by_the_robot", (0.5, 2.5, 0.0), {
+        "alice": {"path": [[0.5, 2.9], [4.4, 2.2]], "speed": 0.6, "mode": "back_and_forth", "pause": 1.0,
+                  "shirt": RED}}, 40.0, drive=[(0.15, 0.0, 12.0), (0.0, -0.5, 6.0), (0.15, 0.0, 8.0)], near=True),
     Scenario("clutter_only", (1.2, 5.0, -math.pi / 2), {}, 25.0, drive=[(0.0, 0.4, 2 * math.pi / 0.4)],
              clutter=True),
 ]

@@ -79,12 +79,14 @@ def _registered(graph, node):
 class PeopleSession:
     """``filtered_topic``: also record filter_user_tracker's output (which users it kept)."""
 
-    def __init__(self, tracked_topic="/tracked_users", cmd_vel="/cmd_vel", filtered_topic=None):
+    def __init__(self, tracked_topic="/tracked_users", cmd_vel="/cmd_vel", filtered_topic=None,
+                 people_topic="/tracked_people"):
         from florence_sim.msg import People
         from user_tracker_ni.msg import TrackedUsers
 
         self.lock = threading.Lock()
         self.tracks = []  # (t [s], {pid: (x, y) in the tracker's frame}, {pid: ni id})
+        self.everyone = []  # the same of people_topic: every confirmed person, by ni id
         self.seen = []  # (t [s], {pid: last_seen [s]}) of the tracker's messages
         self.filtered = []  # (t [s], {pid, ...}) of the filter's messages
         self.people = []  # (t [s], {id: (x, y) in map})
@@ -99,6 +101,7 @@ class PeopleSession:
         self.pubs = [self.cmd, self.initialpose]
         self.subs = [
             rospy.Subscriber(tracked_topic, TrackedUsers, self._on_tracks, queue_size=50),
+            rospy.Subscriber(people_topic, TrackedUsers, self._on_everyone, queue_size=50),
             rospy.Subscriber("/people_ground_truth", People, self._on_people, queue_size=50),
             rospy.Subscriber("/base_pose_ground_truth", Odometry, self._on_pose, callback_args=self.truth,
                              queue_size=100),
@@ -116,6 +119,12 @@ class PeopleSession:
         with self.lock:
             self.tracks.append((t, tracks, ni))
             self.seen.append((t, seen))
+
+    def _on_everyone(self, msg):
+        with self.lock:
+            self.everyone.append((msg.stamp.to_sec(), {i: (p.x, p.y) for i, p in zip(msg.user_ids, msg.positions,
+                                                                                     strict=False)},
+                                  dict(zip(msg.user_ids, msg.user_ids_ni, strict=False))))
 
     def _on_filtered(self, msg):
         with self.lock:
@@ -146,14 +155,14 @@ class PeopleSession:
         wait_for(lambda: self.sim_now() >= start + seconds, timeout or 20 * seconds + 30,
                  what=f"{seconds} s of simulated time")
 
-    def frames(self, since, until, view=None, visible=None):
+    def frames(self, since, until, view=None, visible=None, everyone=False):
         """people_metrics.Frame of every tracker message stamped in [since, until] [s]; a person counts
         where the Kinect has them in ``view`` and, by default, in line of sight past the apartment's
-        walls and furniture."""
+        walls and furniture. ``everyone``: of people_topic's messages (every confirmed person)."""
         if visible is None:
             visible = self.line_of_sight()
         with self.lock:
-            tracks = [m for m in self.tracks if since <= m[0] <= until]
+            tracks = [m for m in (self.everyone if everyone else self.tracks) if since <= m[0] <= until]
             people = list(self.people)
             truth = np.array(self.truth).reshape(-1, 4)
             odom = np.array(self.odom).reshape(-1, 4)
