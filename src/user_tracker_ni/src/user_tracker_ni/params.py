@@ -20,6 +20,10 @@ NODE = ParamTable(
     Param("start_tracking", bool, True, "track from start-up (false: wait for ~Start)"),
     Param("tf_timeout", float, 0.1, "how long a reading waits for its transforms before it is skipped", unit="s",
           ge=0, le=2),
+    Param("mount_tolerance", float, 0.25, "a sensor's mount on the robot (base_frame -> sensor) not yet on tf "
+          "at a reading's stamp is taken from the latest transform up to this much older (the Kinect's tilt "
+          "joint comes at 10 Hz, its frames at 15-30 Hz; the robot's own motion is always looked up at the "
+          "stamp); 0: never", unit="s", ge=0, le=2),
     Param("publish_on_scans_after", float, 0.5, "with no depth frame for this long, publish after each scan instead",
           unit="s", gt=0),
     Param("use_map", bool, True, "judge detections against the robot's map (topic map, placed through tf "
