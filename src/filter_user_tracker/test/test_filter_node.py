@@ -42,3 +42,39 @@ def test_filter_drops_near_and_stale_users(ros_master, rospy_node, publisher):
     finally:
         sub.unregister()
         node.stop()
+
+
+def test_a_camera_pose_on_tf_a_moment_behind_the_messages_still_places_the_users(ros_master, rospy_node,
+                                                                                    publisher):
+    """The Kinect's tilt joint reaches tf at 10 Hz, the tracker publishes at 15 Hz: here the camera's pose is on tf
+    only 0.1 s behind each message, never at its stamp. The near user is still dropped (the latest pose, within
+    ~transform_tolerance 0.25 s); a lookup at the stamp alone would skip the distance rule and pass them on."""
+    import tf2_ros
+    from geometry_msgs.msg import Point
+
+    from florence_common_ros.convert import transform_stamped
+    from user_tracker_ni.msg import TrackedUsers
+
+    rospy = rospy_node
+    tf_pub = tf2_ros.TransformBroadcaster()
+    # a camera frame of its own (the first test's static camera_depth_frame stays on /tf_static)
+    node = rosrun(ros_master, "filter_user_tracker", "filter_user_tracker_node", "_camera_frame:=tilted_camera")
+    got = []
+    sub = rospy.Subscriber("/filtered_tracked_users", TrackedUsers, got.append)
+    pub = publisher("/tracked_users", TrackedUsers)
+    try:
+        wait_for(lambda: pub.get_num_connections() > 0, 30, what="the filter subscribed")
+
+        def filtered():
+            now = rospy.Time.now()
+            tf_pub.sendTransform(transform_stamped(now - rospy.Duration(0.1), "odom", "tilted_camera",
+                                                   1.0, 0.0, 0.0, z=0.5))
+            pub.publish(TrackedUsers(user_ids=[1, 2], user_ids_ni=[11, 12], num_users_tracked=2, stamp=now,
+                                     frame_id="odom", positions=[Point(3.0, 0.0, 0.85), Point(1.2, 0.1, 0.85)],
+                                     last_seen=[now, now]))
+            return bool(got) and list(got[-1].user_ids) == [1]
+
+        wait_for(filtered, 30, interval=0.2, what="the near user dropped")
+    finally:
+        sub.unregister()
+        node.stop()

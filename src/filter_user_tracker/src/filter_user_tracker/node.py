@@ -10,7 +10,9 @@ ROS Publishers:
     filtered_tracked_users (user_tracker_ni/TrackedUsers): the same message without the users
         nearer the camera than ~zero_radius and those no sensor saw for ~stale_after; every
         per-user field is filtered alike. A message whose users cannot be placed (no transform
-        to the camera) is passed on without the distance rule, with a throttled warning.
+        to the camera) is passed on without the distance rule, with a throttled warning. The camera's
+        pose is the latest on tf when that is at most ~transform_tolerance older than the message (the
+        Kinect's tilt joint reaches tf at 10 Hz, the tracker publishes at the camera's 15 Hz).
 """
 
 import rospy
@@ -19,7 +21,7 @@ import tf2_ros
 from filter_user_tracker.stale import keep_mask
 from florence_common.params import FRAME, Param, ParamTable
 from florence_common_ros.node import read_params, run
-from florence_common_ros.transforms import lookup_matrix
+from florence_common_ros.transforms import lookup_recent_matrix
 from user_tracker_ni.msg import TrackedUsers
 
 LOG = "filter_user_tracker: "
@@ -28,6 +30,8 @@ PARAMS = ParamTable(
           "the Kinect sees nothing nearer)", unit="m", ge=0),
     Param("stale_after", float, 0.5, "users no sensor saw for this long are dropped", unit="s", gt=0),
     Param("camera_frame", FRAME, "camera_depth_frame", "the frame distances are measured from"),
+    Param("transform_tolerance", float, 0.25, "the camera's latest pose on tf is used when it is at most this much "
+          "older than the message (0: only at the message's stamp)", unit="s", ge=0),
 )
 PER_USER = ("user_ids", "user_ids_ni", "positions", "velocities", "last_seen", "sensors", "facings")
 
@@ -44,7 +48,8 @@ class FilterUserTrackerNode:
         if not msg.frame_id:
             rospy.logwarn_throttle(5.0, LOG + "tracked_users without a frame_id: distance rule skipped")
             return None
-        m, why = lookup_matrix(self.tf_buffer, msg.frame_id, self.p.camera_frame, msg.stamp, 0.1)
+        m, why, _ = lookup_recent_matrix(self.tf_buffer, msg.frame_id, self.p.camera_frame, msg.stamp,
+                                         self.p.transform_tolerance, 0.1)
         if m is None:
             rospy.logwarn_throttle(5.0, LOG + "%s: distance rule skipped", why)
             return None

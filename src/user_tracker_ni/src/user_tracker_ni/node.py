@@ -52,10 +52,10 @@ from sensor_msgs.msg import CameraInfo, Image, LaserScan
 from visualization_msgs.msg import Marker, MarkerArray
 
 from florence_common.camera import Camera
-from florence_common_ros.convert import depth_image_metres, image_to_array, to_matrix, to_xyyaw, transform_stamped
+from florence_common_ros.convert import depth_image_metres, image_to_array, to_xyyaw, transform_stamped
 from florence_common_ros.diagnostics import ERROR, OK, WARN, Diagnostics
 from florence_common_ros.node import read_params, run
-from florence_common_ros.transforms import lookup_matrix
+from florence_common_ros.transforms import lookup_matrix, lookup_recent_matrix
 from user_tracker_ni.msg import TrackedUsers
 from user_tracker_ni.params import PARAMS, split
 from user_tracker_ni.pipeline import Pipeline
@@ -194,21 +194,13 @@ class UserTrackerNode:
         at most ~mount_tolerance older than the reading (a tilt joint published more slowly than the
         camera's frames would otherwise make most frames wait, or be skipped, for the next joint
         state; a mount moves slowly), else looked up at the stamp (waiting up to ~tf_timeout)."""
-        tolerance = self.values["mount_tolerance"]
-        if tolerance > 0:
-            try:
-                latest = self.tf_buffer.lookup_transform(self.base, frame, rospy.Time(0))
-            except tf2_ros.TransformException:
-                latest = None
-            if latest is not None:
-                if latest.header.stamp.is_zero():  # a static chain
-                    return to_matrix(latest)
-                age = (stamp - latest.header.stamp).to_sec()
-                if 0.0 <= age <= tolerance:
-                    if age > 0.0:
-                        self.stats["readings placed by the latest mount"] += 1
-                    return to_matrix(latest)
-        return self._transform(self.base, frame, stamp)
+        m, why, held = lookup_recent_matrix(self.tf_buffer, self.base, frame, stamp, self.values["mount_tolerance"],
+                                            self.values["tf_timeout"])
+        if m is None:
+            self._warn("tf", "reading skipped, %s", why)
+        elif held > 0.0:
+            self.stats["readings placed by the latest mount"] += 1
+        return m
 
     def _poses(self, frame, stamp):
         """(sensor in base, base in fixed) 4x4 at ``stamp``, or None."""
