@@ -569,3 +569,28 @@ def test_turn_before_tolerance_is_faster_and_ends_within_the_tolerances():
     seconds = _corridor_approach_seconds({"late": FLORENCE, "early": EARLY}, goal_yaw=3.0, xy_slack=0.0)
     # measured: 8.6 s turning once within the tolerance, 8.2 s turning before it
     assert seconds["early"] <= seconds["late"] - 0.2
+
+
+def test_a_turn_to_the_goal_yaw_that_becomes_blocked_drives_on_to_the_goal_position():
+    """A turn on the spot had begun 0.19 m from the goal position when the costmap changed (here a wall 0.04 m
+    behind the robot appears): the rest of the turn would sweep the rear corners into it. The robot drives on
+    toward the goal position and turns there; it used to go on failing 'the rotation collides' to an abort."""
+    res = 0.05
+    cm = Costmap2D(100, 100, res)
+    plan = line_plan(1.0, 2.5, 2.6, 2.5, yaw_end=math.pi / 2)
+    lp = planner(latch_xy_goal_tolerance=True)
+    lp.set_plan(plan)
+    pose = (2.79, 2.5, math.pi)
+    ok, _, reason = lp.compute_velocity(cm, pose, (0.0, 0.0, 0.0), plan)  # nothing near yet: it turns
+    assert ok and reason == "rotating to the goal yaw" and lp._rotating_to_goal
+    lethal = np.zeros((100, 100), bool)
+    lethal[:, 60] = True  # a wall at x = 3.0 m
+    cm.costs[:] = inflated(lethal, res)
+    pose = (2.79, 2.5, math.pi - 0.1)
+    ok, _, reason = lp.compute_velocity(cm, pose, (0.0, 0.0, 0.3), plan)
+    assert ok, reason
+    assert "rotating" not in reason
+    poses = _drive(lp, cm, pose, plan, seconds=30.0, acc=(1.0, 1.0, 1.0))
+    assert lp.is_goal_reached()
+    assert math.hypot(poses[-1, 0] - 2.6, poses[-1, 1] - 2.5) <= 0.25
+    assert max(transform_footprint(FOOTPRINT, *p)[:, 0].max() for p in poses) < 3.0

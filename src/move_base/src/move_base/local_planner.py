@@ -257,10 +257,13 @@ class LocalPlanner:
                 return True, _ZERO, "goal reached"
             # ROS runs a full cycle here too: it refreshes the distance fields checkTrajectory uses.
             best = self.planner.find_best_command(costmap, x, y, yaw, vx, vy, vth, window[:, :2])
-            if (not self._rotating_to_goal and math.hypot(goal_x - x, goal_y - y) > _AT_GOAL
+            if (math.hypot(goal_x - x, goal_y - y) > _AT_GOAL
                     and not self._turn_is_free(costmap, x, y, yaw, goal_th)):
                 # Florence: a turn on the spot would collide here, at the edge of the tolerance (a
                 # goal near a wall): drive on toward the goal position and turn there (ROS fails).
+                # Also when the turn had begun and then became blocked (the costmap moved: a wall
+                # seen a cell nearer, a person): replanning keeps the turn, and it failed until abort.
+                self._rotating_to_goal = False
                 self._xy_tolerance_latch = False
             else:
                 moving = (not self._stopped_moving(vx, vy) if p.rotate_while_braking
