@@ -594,3 +594,25 @@ def test_a_turn_to_the_goal_yaw_that_becomes_blocked_drives_on_to_the_goal_posit
     assert lp.is_goal_reached()
     assert math.hypot(poses[-1, 0] - 2.6, poses[-1, 1] - 2.5) <= 0.25
     assert max(transform_footprint(FOOTPRINT, *p)[:, 0].max() for p in poses) < 3.0
+
+
+def test_a_turn_whose_braking_overshoot_would_collide_drives_on_to_the_goal_position():
+    """0.14 m from the goal position, the turn on the spot to the goal yaw is free, but braking from the
+    in-place speed (1 rad/s at 1 rad/s^2) would carry the nose on toward the wall 0.26 m away: the robot drives
+    on toward the goal position and turns there, instead of failing 'the rotation collides' to an abort."""
+    res = 0.05
+    lethal = np.zeros((100, 100), bool)
+    lethal[:, 60] = True  # a wall at x = 3.0 m
+    cm = Costmap2D(100, 100, res)
+    cm.costs[:] = inflated(lethal, res)
+    plan = line_plan(1.0, 2.5, 2.6, 2.5, yaw_end=-0.96)
+    lp = planner(latch_xy_goal_tolerance=True, acc_lim_th=1.0)
+    lp.set_plan(plan)
+    pose = (2.74, 2.5, math.pi)
+    assert lp._turn_is_free(cm, *pose, -0.96) and not lp._rotate_to_goal(cm, *pose, 0.0, 0.0, 0.0, -0.96)[0]
+    ok, _, reason = lp.compute_velocity(cm, pose, (0.0, 0.0, 0.0), plan)
+    assert ok, reason
+    poses = _drive(lp, cm, pose, plan, seconds=30.0, acc=(1.0, 1.0, 1.0))
+    assert lp.is_goal_reached()
+    assert math.hypot(poses[-1, 0] - 2.6, poses[-1, 1] - 2.5) <= 0.25
+    assert max(transform_footprint(FOOTPRINT, *p)[:, 0].max() for p in poses) < 3.0

@@ -257,32 +257,18 @@ class LocalPlanner:
                 return True, _ZERO, "goal reached"
             # ROS runs a full cycle here too: it refreshes the distance fields checkTrajectory uses.
             best = self.planner.find_best_command(costmap, x, y, yaw, vx, vy, vth, window[:, :2])
-            if (math.hypot(goal_x - x, goal_y - y) > _AT_GOAL
-                    and not self._turn_is_free(costmap, x, y, yaw, goal_th)):
-                # Florence: a turn on the spot would collide here, at the edge of the tolerance (a
-                # goal near a wall): drive on toward the goal position and turn there (ROS fails).
-                # Also when the turn had begun and then became blocked (the costmap moved: a wall
-                # seen a cell nearer, a person): replanning keeps the turn, and it failed until abort.
-                self._rotating_to_goal = False
-                self._xy_tolerance_latch = False
-            else:
-                moving = (not self._stopped_moving(vx, vy) if p.rotate_while_braking
-                          else not self._stopped(vx, vy, vth))
-                if not self._rotating_to_goal and moving:
-                    if p.rotate_while_braking:
-                        cmd = self._brake_and_turn(costmap, x, y, yaw, vx, vy, vth, goal_th)
-                        if cmd is not None:
-                            return True, cmd, "braking and turning to the goal yaw"
-                    ok, cmd = self._stop_with_acc_limits(costmap, x, y, yaw, vx, vy, vth)
-                    if not ok:
-                        return False, _ZERO, ("cannot brake before rotating to the goal yaw: the braking "
-                                              "trajectory collides")
-                    return True, cmd, "braking before rotating to the goal yaw"
-                self._rotating_to_goal = True
-                ok, cmd = self._rotate_to_goal(costmap, x, y, yaw, vx, vy, vth, goal_th)
-                if not ok:
-                    return False, _ZERO, "cannot rotate to the goal yaw: the rotation collides"
-                return True, cmd, "rotating to the goal yaw"
+            far = math.hypot(goal_x - x, goal_y - y) > _AT_GOAL
+            if not far or self._turn_is_free(costmap, x, y, yaw, goal_th):
+                turn = self._turn_to_goal_yaw(costmap, x, y, yaw, vx, vy, vth, goal_th, far)
+                if turn is not None:
+                    return turn
+            # Florence: a turn on the spot would collide here, at the edge of the tolerance (a goal
+            # near a wall): drive on toward the goal position and turn there (ROS fails). Also when
+            # the turn had begun and then became blocked (the costmap moved: a wall seen a cell
+            # nearer, somebody close) or its braking overshoot would collide: replanning keeps the
+            # turn, and it failed to an abort.
+            self._rotating_to_goal = False
+            self._xy_tolerance_latch = False
 
         else:
             if holds_goal and p.turn_before_tolerance and p.rotate_while_braking:
@@ -306,6 +292,28 @@ class LocalPlanner:
         return True, cmd, ""
 
     # --- near the goal ---------------------------------------------------------------------
+    def _turn_to_goal_yaw(self, costmap, x, y, yaw, vx, vy, vth, goal_th, far):
+        """Inside the goal's xy tolerance: (ok, cmd, reason) that brakes, then turns on the spot to
+        ``goal_th``, or None when the robot is ``far`` (> _AT_GOAL) from the goal position and the
+        turn collides there (the caller drives on toward the goal position)."""
+        p = self.params
+        moving = (not self._stopped_moving(vx, vy) if p.rotate_while_braking
+                  else not self._stopped(vx, vy, vth))
+        if not self._rotating_to_goal and moving:
+            if p.rotate_while_braking:
+                cmd = self._brake_and_turn(costmap, x, y, yaw, vx, vy, vth, goal_th)
+                if cmd is not None:
+                    return True, cmd, "braking and turning to the goal yaw"
+            ok, cmd = self._stop_with_acc_limits(costmap, x, y, yaw, vx, vy, vth)
+            if not ok:
+                return False, _ZERO, "cannot brake before rotating to the goal yaw: the braking trajectory collides"
+            return True, cmd, "braking before rotating to the goal yaw"
+        self._rotating_to_goal = True
+        ok, cmd = self._rotate_to_goal(costmap, x, y, yaw, vx, vy, vth, goal_th)
+        if ok:
+            return True, cmd, "rotating to the goal yaw"
+        return None if far else (False, _ZERO, "cannot rotate to the goal yaw: the rotation collides")
+
     def _turn_is_free(self, costmap, x, y, yaw, goal_th, beyond=0.0):
         """Whether the footprint stays clear of lethal cells over the whole turn on the spot from
         ``yaw`` to ``goal_th`` [rad] (the shorter way) and ``beyond`` [rad] past it, checked every
