@@ -46,6 +46,7 @@ def test_the_day_passes_every_check_and_writes_the_report(tmp_path):
     frames = json.loads((out / "frames.json").read_text())
     assert frames["frames"]["base_laser_link"]["parent"] == "plate_1_link"
     assert not list(out.glob("*.tmp")), "temporary files left behind"
+    assert "follow_me_node" in (out / "stack.log").read_text()  # what the nodes printed, for the user to read
 
 
 @pytest.mark.scenario

@@ -165,8 +165,9 @@ def run(args, master, processes):
     for heading, group in sections.items():
         print(f"demo: {heading}: {'all passed' if group.passed else 'FAILED: ' + '; '.join(group.failed())}",
               flush=True)
-    print(f"demo: report written to {os.path.join(os.path.abspath(args.output), 'report.md')} (and report.html)",
-          flush=True)
+    shutil.copyfile(stack.log_path, os.path.join(args.output, "stack.log"))
+    print(f"demo: report written to {os.path.join(os.path.abspath(args.output), 'report.md')} (and report.html; "
+          "what the nodes printed in stack.log)", flush=True)
     del text
     if rviz is not None:
         print("demo: rviz is open; close its window (or press Ctrl-C) to end the demo", flush=True)
