@@ -7,7 +7,7 @@ from collections import deque
 
 import numpy as np
 import pytest
-from follow_me.law import FOLLOWING, GAINS, SEARCHING, Follower, Limits
+from follow_me.law import FOLLOWING, GAINS, SEARCH_PATIENCE, SEARCHING, Follower, Limits
 
 from florence_common.people import AttendedPerson
 
@@ -180,4 +180,24 @@ def test_a_lost_person_is_searched_for_then_given_up():
     assert any("turning to where they were heading" in x for x in texts)
     assert any("looking around" in x for x in texts)
     assert f.lost and 6.0 < t <= 6.2
-    assert math.hypot(robot[0] - 1.2, robot[1] - 0.5) < 0.5, "it went to where they were last seen"
+    # it went to where they were last seen (not on to where their velocity would have carried them)
+    assert math.hypot(robot[0] - 1.2, robot[1]) < 0.5 < math.hypot(robot[0] - 1.2, robot[1] - 0.5)
+
+
+def test_a_search_held_up_on_its_way_looks_from_where_it_is():
+    """On its way to where the person was last seen the robot gets no nearer (the collision monitor holds it at a
+    door's jamb): after SEARCH_PATIENCE s it turns to where they were heading and looks, instead of pushing on
+    until the goal is lost (the demo: 8 s against the jamb while the user walked on out of view)."""
+    f = Follower(gains(), LIMITS, RATE, lost_grace=0.5, lost_timeout=10.0)
+    person = AttendedPerson(1, (1.5, 0.0), (0.0, 0.5), 0.0)  # last seen 1.5 m ahead, walking left
+    robot = (0.0, 0.0, 0.0)  # held: it never moves
+    texts = []
+    for k in range(60):
+        t = k * 0.1
+        out = f.step(t, robot, person)
+        texts.append((t, out.text))
+    going = [t for t, x in texts if "going to where they were last seen" in x]
+    turning = [t for t, x in texts if "turning to where they were heading" in x]
+    assert going and turning, texts
+    assert going[-1] < turning[0] <= 0.5 + SEARCH_PATIENCE + 0.25
+    assert out.w > 0.0  # toward where she was heading: left

@@ -19,8 +19,9 @@ feed-forward term (0 gives the seed's pure spring) removes the spring's lag behi
 person (0.5 m behind at 0.5 m/s with k_distance 1).
 
 A person unseen for ``lost_grace`` s is searched for: the robot turns toward where they were last
-seen, drives there along their trail, then turns toward where they were heading and on, slowly,
-looking; after ``lost_timeout`` s unseen the goal ends (:attr:`Follower.lost`).
+seen, drives there along their trail (or until it gets no nearer for SEARCH_PATIENCE s), then
+turns toward where they were heading and on, slowly, looking; after ``lost_timeout`` s unseen the
+goal ends (:attr:`Follower.lost`).
 """
 
 import math
@@ -35,6 +36,8 @@ from florence_common.angles import diff
 from florence_common.params import Param, ParamTable
 
 FOLLOWING, SEARCHING = "following", "searching"
+SEARCH_PATIENCE = 2.0  # [s] a search that gets no nearer to where the person was last seen looks from there
+SEARCH_PROGRESS = 0.05  # [m] nearer than this counts as getting nearer
 
 # The gains: dynamic_reconfigure (cfg/FollowMe.cfg renders this table) and the node's parameters.
 GAINS = ParamTable(
@@ -98,6 +101,7 @@ class Follower:
         self.lost = False  # unseen for longer than lost_timeout
         self._phase = "go"  # of a search: go (to where they were seen), face (where they headed), sweep
         self._sweep = 1.0  # direction of the sweep
+        self._nearest = None  # (t, distance) when the search last got nearer to where the person was seen
 
     # --- the trail -----------------------------------------------------------------------------
     def _record(self, xy):
@@ -139,6 +143,7 @@ class Follower:
         distance = math.hypot(local[0], local[1])
         if unseen <= self.lost_grace:
             self._phase = "go"
+            self._nearest = None
             self._record(person.xy)
             target = self._steer_point(robot, expected)
             tx, ty = pose2d.transform_points(pose2d.inverse(robot), [target])[0]
@@ -155,16 +160,26 @@ class Follower:
         return self._search(t, robot, person, unseen, expected, (float(local[0]), float(local[1])), distance)
 
     def _search(self, t, robot, person, unseen, expected, local, distance):
-        """Where the person was last seen, then where they were heading, then around."""
+        """Where the person was last seen, then where they were heading, then around. The way there is
+        to the place they were last seen, along their trail: a place somebody stood, where the robot
+        fits; their expected place, carried on by their velocity, may be behind the wall they turned
+        around (the robot pushed into a bedroom door's jamb for 8 s while she walked on out of view).
+        When the robot gets no nearer for SEARCH_PATIENCE s (an obstacle in the way: the collision
+        monitor holds it), it looks from where it is."""
         g = self.gains
         text = f"searching for {person.pid}, unseen for {unseen:.1f} s"
-        if self._phase == "go" and distance > self.search_standoff + 0.05:  # to where they were last seen
-            target = self._steer_point(robot, expected)
-            tx, ty = pose2d.transform_points(pose2d.inverse(robot), [target])[0]
-            theta = math.atan2(ty, tx)
-            v = min(g.search_speed, g.k_distance * distance) * max(0.0, math.cos(theta))
-            v, w = self._command(v, g.k_bearing * theta)
-            return Step(v, w, SEARCHING, local, distance, text + ": going to where they were last seen")
+        seen_at = math.dist(robot[:2], person.xy)
+        if self._phase == "go" and seen_at > self.search_standoff + 0.05:  # to where they were last seen
+            if self._nearest is None or seen_at < self._nearest[1] - SEARCH_PROGRESS:
+                self._nearest = (t, seen_at)
+            if t - self._nearest[0] <= SEARCH_PATIENCE:
+                target = self._steer_point(robot, person.xy)
+                tx, ty = pose2d.transform_points(pose2d.inverse(robot), [target])[0]
+                theta = math.atan2(ty, tx)
+                v = min(g.search_speed, g.k_distance * seen_at) * max(0.0, math.cos(theta))
+                v, w = self._command(v, g.k_bearing * theta)
+                return Step(v, w, SEARCHING, local, distance, text + ": going to where they were last seen")
+            text += f" (no nearer for {SEARCH_PATIENCE:g} s)"
         if self._phase == "go":
             self._phase = "face"
         heading = person.velocity
