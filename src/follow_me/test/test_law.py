@@ -185,7 +185,7 @@ def test_a_lost_person_is_searched_for_then_given_up():
 
 
 def test_a_search_held_up_on_its_way_looks_from_where_it_is():
-    """On its way to where the person was last seen the robot gets no nearer (the collision monitor holds it at a
+    """On its way to where the person was last seen the robot is held up (the collision monitor stops it at a
     door's jamb): after SEARCH_PATIENCE s it turns to where they were heading and looks, instead of pushing on
     until the goal is lost (the demo: 8 s against the jamb while the user walked on out of view)."""
     f = Follower(gains(), LIMITS, RATE, lost_grace=0.5, lost_timeout=10.0)
@@ -201,3 +201,31 @@ def test_a_search_held_up_on_its_way_looks_from_where_it_is():
     assert going and turning, texts
     assert going[-1] < turning[0] <= 0.5 + SEARCH_PATIENCE + 0.25
     assert out.w > 0.0  # toward where she was heading: left
+
+
+def test_a_search_goes_through_the_doorway_the_person_took():
+    """She went north through a 0.9 m doorway (the wall at y = 1 m, the gap |x| < 0.45 m), turned east behind the
+    wall and was last seen there; the robot, 0.5 m east of her line, searches along her trail: it crosses the
+    wall's line inside the gap with its half width (0.2 m) to spare, instead of cutting the corner into the
+    jamb (as the demo's robot did, 0.55 m before the wall and 0.6 m east of her line, and was held there)."""
+    f = Follower(gains(), LIMITS, RATE, lost_grace=0.5, lost_timeout=10.0)
+    walk = [(0.0, y) for y in np.arange(-0.6, 1.6, 0.1)] + [(x, 1.6) for x in np.arange(0.1, 0.75, 0.1)]
+    person = AttendedPerson(1, walk[0], (0.0, 0.5), 0.0)
+    robot = [0.6, 0.45, math.pi / 2]
+    crossed = None
+    for k in range(200):
+        t = k * 0.1
+        if k < len(walk):
+            person.update([1], [walk[k]], [(0.0, 0.5) if k < 22 else (0.5, 0.0)], t)
+            robot = [0.6, 0.45, math.pi / 2]  # it waited while she walked (held up)
+        out = f.step(t, tuple(robot), person)
+        y0 = robot[1]
+        robot[0] += out.v * math.cos(robot[2]) * 0.1
+        robot[1] += out.v * math.sin(robot[2]) * 0.1
+        robot[2] += out.w * 0.1
+        if crossed is None and y0 < 1.0 <= robot[1]:
+            crossed = robot[0]
+        if "looking around" in out.text:
+            break
+    assert crossed is not None, f"it never went through the doorway (at {robot})"
+    assert abs(crossed) < 0.25, f"crossed the wall's line at x {crossed:.2f} m"

@@ -19,7 +19,7 @@ feed-forward term (0 gives the seed's pure spring) removes the spring's lag behi
 person (0.5 m behind at 0.5 m/s with k_distance 1).
 
 A person unseen for ``lost_grace`` s is searched for: the robot turns toward where they were last
-seen, drives there along their trail (or until it gets no nearer for SEARCH_PATIENCE s), then
+seen, drives there along their trail (unless held up for SEARCH_PATIENCE s), then
 turns toward where they were heading and on, slowly, looking; after ``lost_timeout`` s unseen the
 goal ends (:attr:`Follower.lost`).
 """
@@ -36,8 +36,9 @@ from florence_common.angles import diff
 from florence_common.params import Param, ParamTable
 
 FOLLOWING, SEARCHING = "following", "searching"
-SEARCH_PATIENCE = 2.0  # [s] a search that gets no nearer to where the person was last seen looks from there
-SEARCH_PROGRESS = 0.05  # [m] nearer than this counts as getting nearer
+SEARCH_PATIENCE = 2.0  # [s] a search held up this long on its way to where the person was seen looks from there
+SEARCH_PROGRESS = 0.05  # [m] the robot moving this far counts as not held up
+SEARCH_LOOKAHEAD = 0.35  # [m] on the trail while searching: through the doorway they took, not across its jamb
 
 # The gains: dynamic_reconfigure (cfg/FollowMe.cfg renders this table) and the node's parameters.
 GAINS = ParamTable(
@@ -101,15 +102,17 @@ class Follower:
         self.lost = False  # unseen for longer than lost_timeout
         self._phase = "go"  # of a search: go (to where they were seen), face (where they headed), sweep
         self._sweep = 1.0  # direction of the sweep
-        self._nearest = None  # (t, distance) when the search last got nearer to where the person was seen
+        self._moved = None  # (t, (x, y)): when and where the search last moved on by SEARCH_PROGRESS
 
     # --- the trail -----------------------------------------------------------------------------
     def _record(self, xy):
         if not self.trail or math.dist(self.trail[-1], xy) >= TRAIL_SPACING:
             self.trail.append((float(xy[0]), float(xy[1])))
 
-    def _steer_point(self, robot, goal_xy):
-        """The point (fixed frame) to steer to on the way to ``goal_xy`` along the trail."""
+    def _steer_point(self, robot, goal_xy, lookahead=None):
+        """The point (fixed frame) to steer to on the way to ``goal_xy`` along the trail, ``lookahead``
+        [m] ahead on it (default: the gains')."""
+        lookahead = self.gains.lookahead if lookahead is None else lookahead
         if not self.gains.path_following or not self.trail:
             return goal_xy
         pts = np.asarray(self.trail)
@@ -119,8 +122,8 @@ class Follower:
             start += 1
         for _ in range(start):
             self.trail.popleft()
-        ahead = np.flatnonzero(d[start:] >= self.gains.lookahead)
-        if len(ahead) == 0 or math.dist(robot[:2], goal_xy) <= self.gains.lookahead:
+        ahead = np.flatnonzero(d[start:] >= lookahead)
+        if len(ahead) == 0 or math.dist(robot[:2], goal_xy) <= lookahead:
             return goal_xy
         return tuple(pts[start + ahead[0]])
 
@@ -143,7 +146,7 @@ class Follower:
         distance = math.hypot(local[0], local[1])
         if unseen <= self.lost_grace:
             self._phase = "go"
-            self._nearest = None
+            self._moved = None
             self._record(person.xy)
             target = self._steer_point(robot, expected)
             tx, ty = pose2d.transform_points(pose2d.inverse(robot), [target])[0]
@@ -164,22 +167,23 @@ class Follower:
         to the place they were last seen, along their trail: a place somebody stood, where the robot
         fits; their expected place, carried on by their velocity, may be behind the wall they turned
         around (the robot pushed into a bedroom door's jamb for 8 s while she walked on out of view).
-        When the robot gets no nearer for SEARCH_PATIENCE s (an obstacle in the way: the collision
-        monitor holds it), it looks from where it is."""
+        When the robot does not move on for SEARCH_PATIENCE s (an obstacle in the way: the collision
+        monitor holds it), it looks from where it is. Along the trail it steers SEARCH_LOOKAHEAD ahead,
+        through the doorway the person took rather than across its jamb."""
         g = self.gains
         text = f"searching for {person.pid}, unseen for {unseen:.1f} s"
         seen_at = math.dist(robot[:2], person.xy)
         if self._phase == "go" and seen_at > self.search_standoff + 0.05:  # to where they were last seen
-            if self._nearest is None or seen_at < self._nearest[1] - SEARCH_PROGRESS:
-                self._nearest = (t, seen_at)
-            if t - self._nearest[0] <= SEARCH_PATIENCE:
-                target = self._steer_point(robot, person.xy)
+            if self._moved is None or math.dist(robot[:2], self._moved[1]) >= SEARCH_PROGRESS:
+                self._moved = (t, (float(robot[0]), float(robot[1])))
+            if t - self._moved[0] <= SEARCH_PATIENCE:
+                target = self._steer_point(robot, person.xy, min(g.lookahead, SEARCH_LOOKAHEAD))
                 tx, ty = pose2d.transform_points(pose2d.inverse(robot), [target])[0]
                 theta = math.atan2(ty, tx)
                 v = min(g.search_speed, g.k_distance * seen_at) * max(0.0, math.cos(theta))
                 v, w = self._command(v, g.k_bearing * theta)
                 return Step(v, w, SEARCHING, local, distance, text + ": going to where they were last seen")
-            text += f" (no nearer for {SEARCH_PATIENCE:g} s)"
+            text += f" (held up for {SEARCH_PATIENCE:g} s)"
         if self._phase == "go":
             self._phase = "face"
         heading = person.velocity
