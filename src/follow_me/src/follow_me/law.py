@@ -160,9 +160,9 @@ class Follower:
                         f"following {person.pid} at {distance:.2f} m")
         if unseen > self.lost_timeout:
             self.lost = True
-        return self._search(t, robot, person, unseen, expected, (float(local[0]), float(local[1])), distance)
+        return self._search(t, robot, person, unseen, (float(local[0]), float(local[1])), distance)
 
-    def _search(self, t, robot, person, unseen, expected, local, distance):
+    def _search(self, t, robot, person, unseen, local, distance):
         """Where the person was last seen, then where they were heading, then around. The way there is
         to the place they were last seen, along their trail: a place somebody stood, where the robot
         fits; their expected place, carried on by their velocity, may be behind the wall they turned

@@ -258,7 +258,8 @@ class LocalPlanner:
             # ROS runs a full cycle here too: it refreshes the distance fields checkTrajectory uses.
             best = self.planner.find_best_command(costmap, x, y, yaw, vx, vy, vth, window[:, :2])
             far = math.hypot(goal_x - x, goal_y - y) > _AT_GOAL
-            if not far or self._turn_is_free(costmap, x, y, yaw, goal_th):
+            # a turn under way is checked by _rotate_to_goal (the same sweep and its overshoot): once is enough
+            if not far or self._rotating_to_goal or self._turn_is_free(costmap, x, y, yaw, goal_th):
                 turn = self._turn_to_goal_yaw(costmap, x, y, yaw, vx, vy, vth, goal_th, far)
                 if turn is not None:
                     return turn
