@@ -229,3 +229,25 @@ def test_a_search_goes_through_the_doorway_the_person_took():
             break
     assert crossed is not None, f"it never went through the doorway (at {robot})"
     assert abs(crossed) < 0.25, f"crossed the wall's line at x {crossed:.2f} m"
+
+
+def test_keeps_her_in_sight_round_a_doorway_she_turns_behind():
+    """The demo's walk into the bedroom at 0.3 m/s: out of the living room's door, west along the corridor, north
+    through the bedroom's door (x 1.0..1.9 in the wall at y 6.8) and at once east behind that wall. Standing at
+    1 m straight, the robot in the corridor had the wall between them (the demo lost her there for 4 s); keeping
+    the distance along her trail, it comes on into the doorway: the line from it to her passes the doorway (with
+    0.1 m to spare at its ends) all the way, and it stays farther than 0.8 m."""
+    wall_y, gap = 6.8, (1.0, 1.9)
+    path = [(2.45, 4.2), (2.45, 5.2), (2.35, 5.9), (1.5, 6.5), (1.45, 7.2), (2.2, 7.45), (3.9, 7.45), (4.6, 8.4)]
+
+    def hidden_s(rows):
+        (x0, y0), (x1, y1) = rows[:, 1:3].T, rows[:, 4:6].T
+        across = (y0 - wall_y) * (y1 - wall_y) < 0
+        x = x0 + (wall_y - y0) / np.where(across, y1 - y0, 1.0) * (x1 - x0)
+        return np.sum(across & ((x < gap[0] + 0.1) | (x > gap[1] - 0.1))) * 0.01
+
+    rows = simulate(path, 0.3, 40.0, start=(2.45, 3.2, math.pi / 2), turn_acc=1.0, delay=0.2)
+    d = np.hypot(rows[:, 4] - rows[:, 1], rows[:, 5] - rows[:, 2])
+    assert hidden_s(rows) == 0.0, f"the wall between them for {hidden_s(rows):.2f} s"
+    assert d.min() > 0.8, f"{d.min():.2f} m from her"
+    assert rows[-1, 2] > 7.2, f"it ended at {rows[-1, 1:3].round(2)}, not in the bedroom"

@@ -9,14 +9,15 @@ The law (seed 4.1.2, with REP 103 signs):
     v = k_distance (d - d*) + k_feedforward * (the person's speed away from the robot)
     w = k_bearing * theta
 
-d is the distance to the person, d* the desired following distance, theta the bearing of the point
-the robot steers to. The seed steered straight at the person; with ``path_following`` the robot
-steers along the person's trail instead (pure pursuit ``lookahead`` m ahead on it), so that it goes
-through a doorway where the person went rather than across the wall's end; in the open, the trail
-and the straight line are one. v is scaled by cos(theta) (no driving on while facing away; turn
-first), clamped to the goal's limits, and both are limited by the acceleration limits. The
-feed-forward term (0 gives the seed's pure spring) removes the spring's lag behind a walking
-person (0.5 m behind at 0.5 m/s with k_distance 1).
+d is the distance to the person (with ``path_following``, along their trail where it bends: round a
+corner the robot comes on to where it sees them again; :meth:`Follower._gap`), d* the desired
+following distance, theta the bearing of the point the robot steers to. The seed steered straight at
+the person; with ``path_following`` the robot steers along the person's trail instead (pure pursuit
+``lookahead`` m ahead on it), so that it goes through a doorway where the person went rather than
+across the wall's end; in the open, the trail and the straight line are one. v is scaled by
+cos(theta) (no driving on while facing away; turn first), clamped to the goal's limits, and both are
+limited by the acceleration limits. The feed-forward term (0 gives the seed's pure spring) removes
+the spring's lag behind a walking person (0.5 m behind at 0.5 m/s with k_distance 1).
 
 A person unseen for ``lost_grace`` s is searched for: the robot turns toward where they were last
 seen, drives there along their trail (unless held up for SEARCH_PATIENCE s), then
@@ -39,6 +40,10 @@ FOLLOWING, SEARCHING = "following", "searching"
 SEARCH_PATIENCE = 2.0  # [s] a search held up this long on its way to where the person was seen looks from there
 SEARCH_PROGRESS = 0.05  # [m] the robot moving this far counts as not held up
 SEARCH_LOOKAHEAD = 0.35  # [m] on the trail while searching: through the doorway they took, not across its jamb
+CORNER_SPACING = 0.3  # [m] between the trail's points measured for the distance along it (a jittery track's
+# 0.1 m steps would add length of their own)
+NEAR_SHARE = 0.6  # the distance along the trail counts only beyond this share of the desired distance, straight:
+# the robot that comes on round a corner stops at 0.8 of the desired distance straight at the nearest
 
 # The gains: dynamic_reconfigure (cfg/FollowMe.cfg renders this table) and the node's parameters.
 GAINS = ParamTable(
@@ -62,6 +67,8 @@ GAINS = ParamTable(
 TRAIL_SPACING = 0.1  # [m] between the trail's points
 REACHED = 0.3  # [m] a trail point this near the robot is passed
 TRAIL_LENGTH = 200  # points kept (20 m)
+LOOP_RADIUS, LOOP_EXCESS = 0.25, 0.15  # [m] a person back this near a place they passed, on a way this much
+# longer than the straight line, closed a loop
 
 
 @dataclass
@@ -106,8 +113,25 @@ class Follower:
 
     # --- the trail -----------------------------------------------------------------------------
     def _record(self, xy):
-        if not self.trail or math.dist(self.trail[-1], xy) >= TRAIL_SPACING:
-            self.trail.append((float(xy[0]), float(xy[1])))
+        """Adds the person's place to the trail, without the loop of a person who turned back: back
+        within LOOP_RADIUS of a point they passed, on a way from it LOOP_EXCESS longer than the straight
+        line, the trail after that point is dropped (it leads away and back: the robot neither follows it
+        nor counts its length)."""
+        xy = (float(xy[0]), float(xy[1]))
+        if self.trail and math.dist(self.trail[-1], xy) < TRAIL_SPACING:
+            return
+        if self.trail:
+            pts = np.asarray(self.trail)
+            steps = np.append(np.hypot(*np.diff(pts, axis=0).T), math.dist(self.trail[-1], xy))
+            along = np.cumsum(steps[::-1])[::-1]  # [m] from each point to xy along the trail
+            straight = np.hypot(pts[:, 0] - xy[0], pts[:, 1] - xy[1])
+            back = np.flatnonzero((straight < LOOP_RADIUS) & (along - straight >= LOOP_EXCESS))
+            if len(back):
+                for _ in range(len(pts) - 1 - back[0]):
+                    self.trail.pop()
+                if math.dist(self.trail[-1], xy) < TRAIL_SPACING:
+                    return
+        self.trail.append(xy)
 
     def _steer_point(self, robot, goal_xy, lookahead=None):
         """The point (fixed frame) to steer to on the way to ``goal_xy`` along the trail, ``lookahead``
@@ -126,6 +150,26 @@ class Follower:
         if len(ahead) == 0 or math.dist(robot[:2], goal_xy) <= lookahead:
             return goal_xy
         return tuple(pts[start + ahead[0]])
+
+    def _gap(self, robot, goal_xy, straight):
+        """The distance [m] the spring keeps: along the person's trail (after :meth:`_steer_point` has
+        dropped its passed part) where it bends, so that the robot comes on behind a person who turned a
+        corner or went through a doorway and turned behind its wall, to where it sees them again, instead
+        of standing at the desired distance straight with the wall between them (the demo lost the user
+        so: she turned east behind the bedroom door's wall, 1 m from the robot in the corridor). The
+        length beyond the straight distance counts only as far as the straight distance exceeds
+        NEAR_SHARE of the desired one: a trail that doubles back never brings the robot nearer than
+        (1 + NEAR_SHARE) / 2 of the desired distance."""
+        if not self.gains.path_following or not self.trail:
+            return straight
+        along, last = 0.0, robot[:2]
+        for p in self.trail:
+            step = math.dist(last, p)
+            if step >= CORNER_SPACING and math.dist(p, goal_xy) >= CORNER_SPACING:  # their last steps: straight
+                along, last = along + step, p
+        along += math.dist(last, goal_xy)
+        extra = max(0.0, along - straight)
+        return straight + min(extra, max(0.0, straight - NEAR_SHARE * self.limits.desired_distance))
 
     # --- control -------------------------------------------------------------------------------------
     def _command(self, v, w):
@@ -153,7 +197,8 @@ class Follower:
             theta = math.atan2(ty, tx)
             ux, uy = (expected[0] - robot[0]) / max(distance, 1e-6), (expected[1] - robot[1]) / max(distance, 1e-6)
             away = person.velocity[0] * ux + person.velocity[1] * uy  # [m/s] the person's speed away from the robot
-            v = g.k_distance * (distance - lim.desired_distance) + g.k_feedforward * away
+            gap = self._gap(robot, expected, distance)
+            v = g.k_distance * (gap - lim.desired_distance) + g.k_feedforward * away
             v *= max(0.0, math.cos(theta))
             v, w = self._command(v, g.k_bearing * theta)
             return Step(v, w, FOLLOWING, (float(local[0]), float(local[1])), distance,
