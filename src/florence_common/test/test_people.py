@@ -46,6 +46,25 @@ def test_a_new_id_near_where_they_were_expected_is_taken_and_the_old_one_comes_b
     assert not q.update([2], [(3.0, 0.0)], [(0, 0)], 0.5)
 
 
+def test_the_radius_a_new_id_is_taken_in_grows_with_the_time_unseen():
+    """The demo's user, last seen walking east into the bedroom at 0.3 m/s and hidden by its door's wall for 5 s,
+    came into view again as a new id 1.3 m beyond where she was expected (her velocity carries her 1 s only): with
+    reacquire_growth 0.3 m/s she is taken at once; without (and before 1 s unseen) she is not; an id seen beside
+    her is never taken."""
+    def walker(**growth):
+        return AttendedPerson(4, (1.56, 7.24), velocity=(0.3, 0.0), seen_at=0.0, reacquire_radius=0.7, **growth)
+
+    seen_again = ([6], [(3.11, 7.45)], [(0.3, 0.0)], 5.2)  # expected at (1.86, 7.24): 1.27 m off
+    assert not walker().update(*seen_again)
+    p = walker(reacquire_growth=0.3)
+    assert p.search_radius(0.5) == pytest.approx(0.7) and p.search_radius(5.2) == pytest.approx(0.7 + 0.3 * 4.2)
+    assert p.search_radius(60.0) == pytest.approx(2.0)  # reacquire_max_radius
+    assert p.update(*seen_again) and p.pid == 6
+    q = walker(reacquire_growth=0.3)
+    q.others.add(6)  # 6 was seen beside her: another person
+    assert not q.update(*seen_again)
+
+
 def test_nan_rows_are_skipped():
     p = AttendedPerson(1, (0.0, 0.0))
     assert not p.update([1], [(math.nan, 0.0)], [(0, 0)], 0.1)

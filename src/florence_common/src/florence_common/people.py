@@ -53,7 +53,10 @@ class AttendedPerson:
 
     ``reacquire_radius`` [m]: how near where the person was expected a new id must appear to be
     taken for them; ``max_extrapolation`` [s]: how long their last velocity carries the expected
-    position once they are unseen."""
+    position once they are unseen; ``reacquire_growth`` [m/s]: how fast that radius grows once the
+    velocity no longer carries the expected position (how far the person may have walked on unseen:
+    a person who turned behind a wall is seen again well beyond the 1 s they are carried), up to
+    ``reacquire_max_radius`` [m]. An id seen beside theirs (:attr:`others`) is never taken."""
 
     pid: int
     xy: tuple
@@ -61,6 +64,8 @@ class AttendedPerson:
     seen_at: float = 0.0
     reacquire_radius: float = 0.6
     max_extrapolation: float = 1.0
+    reacquire_growth: float = 0.0
+    reacquire_max_radius: float = 2.0
     own_ids: set = field(default_factory=set)  # every id this person went by
     others: set = field(default_factory=set)  # ids seen at the same time as them: other people
     switches: list = field(default_factory=list)  # (t, old id, new id)
@@ -75,6 +80,11 @@ class AttendedPerson:
         velocity for at most ``max_extrapolation`` s."""
         dt = min(max(t - self.seen_at, 0.0), self.max_extrapolation)
         return self.xy[0] + self.velocity[0] * dt, self.xy[1] + self.velocity[1] * dt
+
+    def search_radius(self, t):
+        """How near where they are expected [m] a new id is taken for them at ``t`` [s]."""
+        walked = self.reacquire_growth * max(self.unseen_for(t) - self.max_extrapolation, 0.0)
+        return max(self.reacquire_radius, min(self.reacquire_radius + walked, self.reacquire_max_radius))
 
     def unseen_for(self, t):
         return max(t - self.seen_at, 0.0)
@@ -99,7 +109,7 @@ class AttendedPerson:
         if found is None:
             candidates = [k for pid, k in index.items() if pid not in self.others]
             if candidates:
-                k, _ = nearest(xy[candidates], self.expected(t), self.reacquire_radius)
+                k, _ = nearest(xy[candidates], self.expected(t), self.search_radius(t))
                 found = None if k is None else candidates[k]
         if found is None:
             return False

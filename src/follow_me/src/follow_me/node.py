@@ -66,6 +66,9 @@ PARAMS = ParamTable(
     Param("lost_timeout", float, 10.0, "a person unseen this long (searching) ends the goal ABORTED", unit="s", gt=0),
     Param("reacquire_radius", float, 0.7, "a new track this near where the person was expected is taken for them",
           unit="m", gt=0),
+    Param("reacquire_growth", float, 0.3, "how fast that radius grows once the person has been unseen for more than "
+          "1 s (how far they may have walked on out of view: an elderly person's pace)", unit="m/s", ge=0, le=1.5),
+    Param("reacquire_max_radius", float, 2.0, "the largest it grows to", unit="m", gt=0),
     Param("sources", list, None, "the obstacle sensors, as collision_monitor's ~sources (config/sources.yaml); "
           "unset: no steering clear", optional=True),
     Param("steer_limit", float, 0.6, "largest change of the law's turn rate that steers a command clear of "
@@ -111,7 +114,8 @@ class FollowMeNode(PersonBehaviour):
         if why:
             return why
         why = self.attend(goal, lambda person, robot, frame: Follower(self.gains, limits, p.rate, p.lost_grace,
-                                                                       p.lost_timeout))
+                                                                       p.lost_timeout),
+                          reacquire_growth=p.reacquire_growth, reacquire_max_radius=p.reacquire_max_radius)
         if why:
             return why
         self.last_step = None
