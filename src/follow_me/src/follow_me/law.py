@@ -64,6 +64,14 @@ GAINS = ParamTable(
     Param("search_turn_rate", float, 0.6, "turn rate while looking for the person", unit="rad/s", gt=0, le=2),
 )
 
+def _segment_distance(points, a, b):
+    """The least distance [m] of ``points`` [N, 2] from the segment a-b."""
+    ab = b - a
+    s = np.clip(((points - a) @ ab) / max(float(ab @ ab), 1e-12), 0.0, 1.0)
+    return float(np.min(np.hypot(*(points - (a + s[:, None] * ab)).T)))
+
+
+OWN_POINTS = 0.45  # [m] obstacle points this near the person are theirs (legs, body)
 TRAIL_SPACING = 0.1  # [m] between the trail's points
 REACHED = 0.3  # [m] a trail point this near the robot is passed
 TRAIL_LENGTH = 200  # points kept (20 m)
@@ -97,7 +105,7 @@ class Follower:
     """The controller of one goal. ``gains``: GAINS values (replace :attr:`gains` to retune live);
     ``rate`` [Hz] of :meth:`step`; ``lost_grace`` and ``lost_timeout`` [s]."""
 
-    def __init__(self, gains, limits, rate, lost_grace=0.5, lost_timeout=10.0, search_standoff=0.4):
+    def __init__(self, gains, limits, rate, lost_grace=0.5, lost_timeout=10.0, search_standoff=0.4, clearance=0.4):
         self.gains = gains
         self.limits = limits
         self.dt = 1.0 / rate
@@ -110,6 +118,8 @@ class Follower:
         self._phase = "go"  # of a search: go (to where they were seen), face (where they headed), sweep
         self._sweep = 1.0  # direction of the sweep
         self._moved = None  # (t, (x, y)): when and where the search last moved on by SEARCH_PROGRESS
+        self.obstacles = None  # [N, 2] obstacle points near the robot (fixed frame), for this cycle (step)
+        self.clearance = clearance
 
     # --- the trail -----------------------------------------------------------------------------
     def _record(self, xy):
@@ -148,8 +158,24 @@ class Follower:
             self.trail.popleft()
         ahead = np.flatnonzero(d[start:] >= lookahead)
         if len(ahead) == 0 or math.dist(robot[:2], goal_xy) <= lookahead:
-            return goal_xy
-        return tuple(pts[start + ahead[0]])
+            if self._passes(robot, goal_xy) or len(pts) == start + 1:
+                return goal_xy
+            k = len(pts) - 1
+        else:
+            k = start + ahead[0]
+        while k > start and not self._passes(robot, pts[k]):
+            k -= 1  # nearer on the trail: the straight way to the farther point grazes what the robot sees
+        return tuple(pts[k])
+
+    def _passes(self, robot, xy):
+        """Whether the straight way from the robot to ``xy`` keeps ``clearance`` [m] from every obstacle
+        point (or, already nearer than that, no nearer than the robot is now)."""
+        obstacles = self.obstacles
+        if obstacles is None or not len(obstacles):
+            return True
+        a, b = np.asarray(robot[:2], dtype=float), np.asarray(xy, dtype=float)
+        near_now = float(np.min(np.hypot(obstacles[:, 0] - a[0], obstacles[:, 1] - a[1])))
+        return _segment_distance(obstacles, a, b) >= min(self.clearance, near_now) - 1e-9
 
     def _gap(self, robot, goal_xy, straight):
         """The distance [m] the spring keeps: along the person's trail (after :meth:`_steer_point` has
@@ -180,10 +206,17 @@ class Follower:
         self.w = step_towards(self.w, w, g.max_ang_acc * self.dt)
         return self.v, self.w
 
-    def step(self, t, robot, person):
+    def step(self, t, robot, person, obstacles=None):
         """One cycle at ``t`` [s]: ``robot`` (x, y, yaw) in the fixed frame, ``person`` the
-        florence_common.people.AttendedPerson (updated by the caller with the tracker's reports)."""
+        florence_common.people.AttendedPerson (updated by the caller with the tracker's reports),
+        ``obstacles`` [N, 2] what the robot sees (fixed frame; None: nothing known)."""
         g, lim = self.gains, self.limits
+        self.obstacles = None
+        if obstacles is not None and len(obstacles):
+            o = np.asarray(obstacles, dtype=float).reshape(-1, 2)
+            o = o[(np.hypot(o[:, 0] - robot[0], o[:, 1] - robot[1]) <= g.lookahead + self.clearance + 0.1)
+                  & (np.hypot(o[:, 0] - person.xy[0], o[:, 1] - person.xy[1]) > OWN_POINTS)]
+            self.obstacles = o if len(o) else None
         unseen = person.unseen_for(t)
         expected = person.expected(t)
         local = pose2d.transform_points(pose2d.inverse(robot), [expected])[0]

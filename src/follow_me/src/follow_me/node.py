@@ -30,6 +30,7 @@ ROS Publishers:
     /diagnostics: the goal, the person, the tracker's input.
 """
 
+import numpy as np
 import rospy
 from collision_monitor.monitor import CLEAR, SLOW, TURN, MonitorConfig, steer_clear
 from collision_monitor.obstacles import parse_sources
@@ -74,6 +75,10 @@ PARAMS = ParamTable(
     Param("steer_limit", float, 0.6, "largest change of the law's turn rate that steers a command clear of "
           "something beside the robot, and the turn rate on the spot when no arc passes (0: never)", unit="rad/s",
           ge=0, le=1.5),
+    Param("trail_clearance", float, 0.4, "with ~sources: the straight way to the point steered to on the person's "
+          "trail keeps this from what the robot sees (its centre to a point; or no nearer than it is), else it steers "
+          "to a nearer point on the trail (through a doorway's middle, as the person went, not past its jamb)",
+          unit="m", gt=0, le=1.0),
     Param("stop_distance", float, MonitorConfig.stop_distance, "the collision monitor's: least clearance a "
           "steered command's path keeps (the footprint: a circle of ~robot_radius)", unit="m", gt=0),
 )
@@ -114,7 +119,7 @@ class FollowMeNode(PersonBehaviour):
         if why:
             return why
         why = self.attend(goal, lambda person, robot, frame: Follower(self.gains, limits, p.rate, p.lost_grace,
-                                                                       p.lost_timeout),
+                                                                       p.lost_timeout, clearance=p.trail_clearance),
                           reacquire_growth=p.reacquire_growth, reacquire_max_radius=p.reacquire_max_radius)
         if why:
             return why
@@ -131,28 +136,35 @@ class FollowMeNode(PersonBehaviour):
             return None
         # the tracker's stamp and the robot's clock are one ROS time
         now = rospy.get_time()
-        out = self.controller.step(now, robot, person)
+        points, padding = self._points()
+        out = self.controller.step(now, robot, person, points)
         if self.controller.lost:
             return aborted(f"person lost: {person.pid} unseen for {person.unseen_for(now):.1f} s "
                            f"(searched where they were last seen)", self.result())
         self.last_step = out
         v, w, text = out.v, out.w, out.text
-        if self.obstacles is not None and out.mode == FOLLOWING and v > 0:
-            v, w, text = self._steer(robot, v, w, text)
+        if points is not None and out.mode == FOLLOWING and v > 0:
+            v, w, text = self._steer(robot, v, w, text, points, padding)
         self.drive(v, w, text)
         self.server.publish_feedback(FollowMeFeedback(*out.person))
         return None
 
-    def _steer(self, robot, v, w, text):
-        """The law's command steered clear of what is beside the robot (module docstring)."""
+    def _points(self):
+        """(What the obstacle sources see [N, 2] in the tracker's frame, their padding), or (None, None)."""
+        if self.obstacles is None:
+            return None, None
         points, padding = self.obstacles.points()
         if not len(points):
-            return v, w, text
+            return None, None
         if self.frame != "odom":
             m, _ = self.people.robot_pose(self.frame, "odom")  # odom in the tracker's frame
             if m is None:
-                return v, w, text
-            points = pose2d.transform_points(m, points[:, :2])
+                return None, None
+            return pose2d.transform_points(m, points[:, :2]), padding
+        return np.asarray(points[:, :2]), padding
+
+    def _steer(self, robot, v, w, text, points, padding):
+        """The law's command steered clear of what is beside the robot (module docstring)."""
         local = pose2d.transform_points(pose2d.inverse(robot), points[:, :2])
         d = steer_clear(local, v, w, self.monitor, self.controller.limits.max_ang_speed, self.params.steer_limit,
                         padding)
