@@ -12,7 +12,7 @@ The robot starts in the kitchen. The user (alice, red shirt) sits in the living 
 4. ``follow_me``: the user stands up and walks to the bedroom; the goal is the tracker's position
    of the user (``filtered_tracked_users``, in base_link through odometry), picked near where
    florenceLocator last knew the user; she sits down there;
-5. ``approach_me``: to a place beside the seated user (p2r 60 degrees: her left side);
+5. ``approach_me``: to a place beside the seated user (p2r 35 degrees: her left side);
 6. ``gotoRoom("kitchen")``;
 7. ``setHotspot``, florence_locator killed (SIGKILL) and started again (rosrun, its parameters still
    on the master), ``getHotspot`` serves the new value;
@@ -66,7 +66,10 @@ VISITOR_POSE = (4.3, 4.9, -2.4)  # the living room's north-east, by the dining t
 WALK_SPEED = 0.3  # [m/s] an elderly person's
 BEDROOM_SEAT = (4.6, 8.4, math.pi)  # the bedroom's open east part, facing west into the room
 FOLLOW_DISTANCE = 1.0  # [m]
-APPROACH = {"distance": 0.6, "p2r": math.pi / 3, "r2p": 0.0}  # beside her (the robot comes from the south-west)
+# beside her: follow_me leaves the robot 1 m south-west of her seat, 54-56 deg to her front-left (she sits facing
+# west), so p2r 35 deg asks for a place about 90 deg to her left; 60 deg asked for 114-116 deg, past the 110 deg
+# where locator_metrics' "left" ends (a run on 27 Nov ended there, 0.07 m from the asked place, "behind")
+APPROACH = {"distance": 0.6, "p2r": math.radians(35), "r2p": 0.0}
 NEW_HOTSPOT = ("tv", 1.0, 4.3, math.pi)  # a new labelled place in the living room [m, m, rad]
 ROOMS = map_file("apartment", "rooms.yaml")
 
