@@ -64,19 +64,20 @@ GAINS = ParamTable(
     Param("search_turn_rate", float, 0.6, "turn rate while looking for the person", unit="rad/s", gt=0, le=2),
 )
 
-def _segment_distance(points, a, b):
-    """The least distance [m] of ``points`` [N, 2] from the segment a-b."""
-    ab = b - a
-    s = np.clip(((points - a) @ ab) / max(float(ab @ ab), 1e-12), 0.0, 1.0)
-    return float(np.min(np.hypot(*(points - (a + s[:, None] * ab)).T)))
 
-
-OWN_POINTS = 0.45  # [m] obstacle points this near the person are theirs (legs, body)
 TRAIL_SPACING = 0.1  # [m] between the trail's points
 REACHED = 0.3  # [m] a trail point this near the robot is passed
 TRAIL_LENGTH = 200  # points kept (20 m)
 LOOP_RADIUS, LOOP_EXCESS = 0.25, 0.15  # [m] a person back this near a place they passed, on a way this much
 # longer than the straight line, closed a loop
+OWN_POINTS = 0.45  # [m] obstacle points this near the person are theirs (legs, body)
+
+
+def _segment_distance(points, a, b):
+    """The least distance [m] of ``points`` [N, 2] from the segment a-b."""
+    ab = b - a
+    s = np.clip(((points - a) @ ab) / max(float(ab @ ab), 1e-12), 0.0, 1.0)
+    return float(np.min(np.hypot(*(points - (a + s[:, None] * ab)).T)))
 
 
 @dataclass
@@ -103,7 +104,8 @@ class Step:
 
 class Follower:
     """The controller of one goal. ``gains``: GAINS values (replace :attr:`gains` to retune live);
-    ``rate`` [Hz] of :meth:`step`; ``lost_grace`` and ``lost_timeout`` [s]."""
+    ``rate`` [Hz] of :meth:`step`; ``lost_grace`` and ``lost_timeout`` [s]; ``clearance`` [m]: what
+    the straight way to the point steered to keeps from the obstacle points :meth:`step` is given."""
 
     def __init__(self, gains, limits, rate, lost_grace=0.5, lost_timeout=10.0, search_standoff=0.4, clearance=0.4):
         self.gains = gains
