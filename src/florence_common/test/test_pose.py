@@ -105,3 +105,10 @@ def test_beams_in_plane_upright_yawed_and_upside_down():
     np.testing.assert_allclose(yawed, angles + 0.5, atol=1e-12)
     tilted = pose.transform_matrix((0, 0, 0), tuple(pose.Rotation.from_euler("y", 0.3).as_quat()))
     assert pose.beams_in_plane(tilted, angles)[2] == pytest.approx(math.cos(0.3))
+
+
+def test_segment_distances():
+    pts = [(0.5, 1.0), (-1.0, 0.0), (3.0, -4.0), (1.0, 0.0)]
+    d = pose.segment_distances(pts, (0.0, 0.0), (2.0, 0.0))
+    assert d == pytest.approx([1.0, 1.0, math.hypot(1.0, 4.0), 0.0])  # beside, beyond each end, on it
+    assert pose.segment_distances([(3.0, 4.0)], (0.0, 0.0), (0.0, 0.0)) == pytest.approx([5.0])  # a point

@@ -37,14 +37,6 @@ def final_heading(robot_xy, person, r2p):
     return wrap(math.atan2(person[1] - robot_xy[1], person[0] - robot_xy[0]) + r2p)
 
 
-def segment_distance(point, a, b):
-    """Distance [m] of ``point`` from the segment a-b."""
-    p, a, b = (np.asarray(v, dtype=float) for v in (point, a, b))
-    ab = b - a
-    t = 0.0 if not ab.any() else float(np.clip(np.dot(p - a, ab) / np.dot(ab, ab), 0.0, 1.0))
-    return float(np.linalg.norm(p - (a + t * ab)))
-
-
 def approach_path(robot_xy, person, goal, turn_sign=0.0, spacing=0.15):
     """Waypoints [(x, y), ...] from ``robot_xy`` to ``goal`` on a logarithmic spiral about the person:
     the distance to them shrinks (or grows) evenly with the angle swept round them, so that the

@@ -56,6 +56,15 @@ def transform_points(pose, points):
     return np.column_stack([x + c * pts[:, 0] - s * pts[:, 1], y + s * pts[:, 0] + c * pts[:, 1]])
 
 
+def segment_distances(points, a, b):
+    """Distances [N] of ``points`` [N, 2] from the segment ``a``-``b`` (a point when a == b)."""
+    pts = np.asarray(points, dtype=float).reshape(-1, 2)
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    ab = b - a
+    t = np.clip(((pts - a) @ ab) / max(float(ab @ ab), 1e-12), 0.0, 1.0)
+    return np.hypot(*(pts - (a + t[:, None] * ab)).T)
+
+
 def to_matrix(pose):
     """3x3 homogeneous matrix of a 2-D pose."""
     x, y, th = (float(v) for v in pose)

@@ -73,13 +73,6 @@ LOOP_RADIUS, LOOP_EXCESS = 0.25, 0.15  # [m] a person back this near a place the
 OWN_POINTS = 0.45  # [m] obstacle points this near the person are theirs (legs, body)
 
 
-def _segment_distance(points, a, b):
-    """The least distance [m] of ``points`` [N, 2] from the segment a-b."""
-    ab = b - a
-    s = np.clip(((points - a) @ ab) / max(float(ab @ ab), 1e-12), 0.0, 1.0)
-    return float(np.min(np.hypot(*(points - (a + s[:, None] * ab)).T)))
-
-
 @dataclass
 class Limits:
     """The goal's limits after defaults: max_lin_speed [m/s], max_ang_speed [rad/s],
@@ -121,6 +114,7 @@ class Follower:
         self._sweep = 1.0  # direction of the sweep
         self._moved = None  # (t, (x, y)): when and where the search last moved on by SEARCH_PROGRESS
         self.obstacles = None  # [N, 2] obstacle points near the robot (fixed frame), for this cycle (step)
+        self._required = clearance  # [m] this cycle's: what a straight way keeps from them (_passes)
         self.clearance = clearance
 
     # --- the trail -----------------------------------------------------------------------------
@@ -172,12 +166,9 @@ class Follower:
     def _passes(self, robot, xy):
         """Whether the straight way from the robot to ``xy`` keeps ``clearance`` [m] from every obstacle
         point (or, already nearer than that, no nearer than the robot is now)."""
-        obstacles = self.obstacles
-        if obstacles is None or not len(obstacles):
+        if self.obstacles is None:
             return True
-        a, b = np.asarray(robot[:2], dtype=float), np.asarray(xy, dtype=float)
-        near_now = float(np.min(np.hypot(obstacles[:, 0] - a[0], obstacles[:, 1] - a[1])))
-        return _segment_distance(obstacles, a, b) >= min(self.clearance, near_now) - 1e-9
+        return float(np.min(pose2d.segment_distances(self.obstacles, robot[:2], xy))) >= self._required - 1e-9
 
     def _gap(self, robot, goal_xy, straight):
         """The distance [m] the spring keeps: along the person's trail (after :meth:`_steer_point` has
@@ -216,9 +207,12 @@ class Follower:
         self.obstacles = None
         if obstacles is not None and len(obstacles):
             o = np.asarray(obstacles, dtype=float).reshape(-1, 2)
-            o = o[(np.hypot(o[:, 0] - robot[0], o[:, 1] - robot[1]) <= g.lookahead + self.clearance + 0.1)
-                  & (np.hypot(o[:, 0] - person.xy[0], o[:, 1] - person.xy[1]) > OWN_POINTS)]
-            self.obstacles = o if len(o) else None
+            near = np.hypot(o[:, 0] - robot[0], o[:, 1] - robot[1])
+            keep = (near <= g.lookahead + self.clearance + 0.1) & (
+                np.hypot(o[:, 0] - person.xy[0], o[:, 1] - person.xy[1]) > OWN_POINTS)
+            if np.any(keep):
+                # the clearance a straight way must keep: or, already nearer, no nearer than the robot is now
+                self.obstacles, self._required = o[keep], min(self.clearance, float(np.min(near[keep])))
         unseen = person.unseen_for(t)
         expected = person.expected(t)
         local = pose2d.transform_points(pose2d.inverse(robot), [expected])[0]
