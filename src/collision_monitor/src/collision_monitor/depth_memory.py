@@ -48,7 +48,8 @@ A person who walks away is cleared by the pixels that now see the wall behind wh
 What was seen near and leaves the view unseen stays (the safe mistake): the parts of a person who
 stood within blind_range that are above or below the view remain an obstacle in front until the
 robot turns away or backs off far enough to see the place again (or is told to forget: the node's
-~forget, after the robot was carried).
+~forget, after the robot was carried), unless the laser shows that what held it up left
+(``support_radius``, :meth:`DepthMemory.update`): then BLIND, UNKNOWN and OUTSIDE points go at once.
 """
 
 import math
@@ -63,6 +64,9 @@ from florence_common.camera import Camera, stride_for
 OBSERVED, SEEN_THROUGH, HIDDEN, BEHIND, OUTSIDE, BLIND, UNKNOWN = range(7)
 VERDICTS = ("observed", "seen through", "hidden", "behind", "outside", "blind", "unknown")
 KEPT = np.array([False, False, True, True, True, True, True])  # per verdict: not dropped
+# a held point (support_radius) with one of these verdicts and no floor-level return near now is dropped:
+# the camera cannot see it (too near, or beside, above or below its view), the laser sees what held it gone
+RELEASED_BY_SUPPORT = (BLIND, UNKNOWN, OUTSIDE)
 _VOXEL_SPAN = 1 << 20  # voxel index range per axis (+-2**19 voxels: +-15 km at 3 cm)
 
 
@@ -208,10 +212,12 @@ class DepthMemory:
     def update(self, frame, support=None):
         """Take a frame; returns the number of points remembered from before. ``support`` [K, 2]:
         floor-level returns (the laser's points, x and y in the fixed frame) or None. With
-        ``support_radius`` > 0, a BLIND point that had such a return within support_radius when it
-        was last seen and has none now is dropped: what held it up left (a person who stood up and
-        walked away, above and below the view); a chair's legs stay, and a table top's edge far
-        from its legs was never held."""
+        ``support_radius`` > 0, a point the camera cannot see now (BLIND, UNKNOWN or OUTSIDE: too
+        near, or beside, above or below the view) that had such a return within support_radius when
+        it was last seen and has none now is dropped: what held it up left (a person who stood up and
+        walked away, or walked on ahead of a robot following her, above and below the view); a
+        chair's legs stay, and a table top's edge far from its legs was never held. BEHIND and
+        HIDDEN points are not: the laser may not see there either."""
         cleared = self.cleared
         old_points, old_seen_at, old_from, old_held = self.points, self.seen_at, self.seen_from, self.held
         fresh, fresh_from = self._fresh(frame)
@@ -219,7 +225,8 @@ class DepthMemory:
         use_support = support is not None and self.support_radius > 0.0
         tree = cKDTree(np.asarray(support, dtype=float)[:, :2]) if use_support and len(support) else None
         if use_support:
-            verdict[(verdict == BLIND) & old_held & ~self._near_support(old_points, tree)] = SEEN_THROUGH
+            unseen = np.isin(verdict, RELEASED_BY_SUPPORT)
+            verdict[unseen & old_held & ~self._near_support(old_points, tree)] = SEEN_THROUGH
         self.counts = np.bincount(verdict, minlength=len(VERDICTS))
         stamp = float(frame.stamp)
         seen_at = np.where(verdict == BLIND, stamp, old_seen_at)  # blind in front: kept while it is there

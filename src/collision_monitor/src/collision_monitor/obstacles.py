@@ -61,9 +61,10 @@ SOURCE = ParamTable(
           ge=1),
     Param("resolution", float, 0.03, "depth: one point is kept per cube of this edge; commands are judged against "
           "one per column of this square", unit="m", gt=0),
-    Param("support_radius", float, 0.0, "depth: a blind point (kept while it is there) that had a return of the "
-          "scan sources (the laser, at floor level) this near when last seen and has none now is dropped: what "
-          "held it up left (a person who got up and walked away); a chair's legs stay (0: off)", unit="m", ge=0),
+    Param("support_radius", float, 0.0, "depth: a point the camera cannot see now (too near, or beside, above or "
+          "below the view) that had a return of the scan sources (the laser, at floor level) this near when last "
+          "seen and has none now is dropped: what held it up left (a person who got up and walked away, or walked "
+          "on ahead of the robot); a chair's legs stay (0: off)", unit="m", ge=0),
     prefix="",
 )
 DEPTH_ONLY = ("camera_info", "min_height", "max_height", "max_range", "blind_range", "target_width", "resolution",
