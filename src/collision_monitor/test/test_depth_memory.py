@@ -388,7 +388,7 @@ def test_a_walking_persons_parts_left_out_of_view_go_when_the_laser_sees_their_l
     behind a person walking at its top speed); the laser, which saw her legs there and sees them farther on now,
     releases them at once."""
     def person(x):  # legs and torso, up to the band's top
-        return [(x, -0.15, 0.0, x + 0.25, 0.15, 1.0)]
+        return (x, -0.15, 0.0, x + 0.25, 0.15, 1.0)
 
     def legs(x):
         return np.array([[x + 0.02, -0.1], [x + 0.02, 0.1]])
@@ -396,9 +396,9 @@ def test_a_walking_persons_parts_left_out_of_view_go_when_the_laser_sees_their_l
     for rule, gone in ((0.35, True), (0.0, False)):
         m = DepthMemory(memory=1.5, support_radius=rule)
         for k in range(3):  # she stands 1.2 m ahead
-            m.update(frame(person(1.2) + [WALL], x=0.0, stamp=0.1 * k), legs(1.2))
+            m.update(frame([person(1.2), WALL], x=0.0, stamp=0.1 * k), legs(1.2))
         assert nearest_ahead(m, 0.0) == pytest.approx(1.2, abs=0.03)
-        m.update(frame(person(1.7) + [WALL], x=0.5, stamp=1.2), legs(1.7))  # both went on 0.5 m at 0.5 m/s
+        m.update(frame([person(1.7), WALL], x=0.5, stamp=1.2), legs(1.7))  # both went on 0.5 m at 0.5 m/s
         left = m.points[(m.points[:, 0] < 1.6) & (np.abs(m.points[:, 1]) < 0.2)]
         assert (len(left) == 0) is gone, (rule, left[:3].round(2).tolist(), m.counts.tolist())
         if not gone:
