@@ -380,11 +380,10 @@ def test_a_seated_person_who_gets_up_and_leaves_is_released_when_the_laser_sees_
         assert (nearest_ahead(m, 0.55) > 2.0) is gone, (rule, nearest_ahead(m, 0.55))
 
 
-
 def test_a_walking_persons_parts_left_out_of_view_go_when_the_laser_sees_their_legs_gone():
     """A robot following a person: parts of her seen from 1.2 m (her shoulders, near the top of the band) leave
     the view as it comes on while she walks on, unseen through. Kept for ``memory`` s, such points lay on her
-    track 0.4 m before the robot and slowed it on every walk in florence_sim (follow_me fell 0.1-0.2 m further
+    track 0.4 m before the robot and slowed it on most walks in florence_sim (follow_me fell 0.1-0.2 m further
     behind a person walking at its top speed); the laser, which saw her legs there and sees them farther on now,
     releases them at once."""
     def person(x):  # legs and torso, up to the band's top
