@@ -186,6 +186,26 @@ def test_a_lost_person_is_searched_for_then_given_up():
     assert math.hypot(robot[0] - 1.2, robot[1]) < 0.5 < math.hypot(robot[0] - 1.2, robot[1] - 0.5)
 
 
+def test_a_person_lost_standing_still_is_not_driven_up_to():
+    """She stopped 1.1 m before the robot and the tracker dropped her there (florence_sim: too near for the
+    Kinect to see her head, her legs together for the laser): the search looks from the desired distance
+    instead of driving to where she was last seen (it came to 0.54 m of her, centres). A person lost walking
+    is still gone after (the test above)."""
+    f = Follower(gains(), LIMITS, RATE, lost_grace=0.5, lost_timeout=6.0)
+    person = AttendedPerson(1, (1.1, 0.0), (0.0, 0.0), 0.0)  # standing 1.1 m ahead, last seen at t = 0
+    robot = [0.0, 0.0, 0.0]
+    least, texts = math.inf, []
+    for k in range(60):
+        out = f.step(k * 0.1, tuple(robot), person)
+        texts.append(out.text)
+        robot[0] += out.v * math.cos(robot[2]) * 0.1
+        robot[1] += out.v * math.sin(robot[2]) * 0.1
+        robot[2] += out.w * 0.1
+        least = min(least, math.hypot(robot[0] - 1.1, robot[1]))
+    assert any("searching" in x for x in texts)
+    assert least > 0.95, f"{least:.2f} m from where she stood"
+
+
 def test_a_search_held_up_on_its_way_looks_from_where_it_is():
     """On its way to where the person was last seen the robot is held up (the collision monitor stops it at a
     door's jamb): after SEARCH_PATIENCE s it turns to where they were heading and looks, instead of pushing on

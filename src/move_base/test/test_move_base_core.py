@@ -286,6 +286,41 @@ def test_max_recovery_restarts_ends_a_robot_shuffling_on_the_spot():
     assert run(unlimited, pose=shuffle, n=5000)[0] is None  # ROS: on and on
 
 
+def test_a_plan_that_leads_nowhere_does_not_restart_the_recoveries():
+    """Regression (test_nav_sim, a person standing in a doorway for good): conservative_reset cleared
+    the person, the planner found a way through them, the controller found no trajectory, planning
+    failed again; ROS's rule restarted the list at every plan found, so the rotations never ran and
+    the goal ended on max_recovery_restarts after conservative_reset alone."""
+    cleared = {"fresh": False}
+
+    class ClearingRecovery(FakeRecovery):
+        def start(self, now, pose):
+            super().start(now, pose)
+            cleared["fresh"] = self.name == "conservative_reset"
+
+    def planner(start, goal):
+        ok, cleared["fresh"] = cleared["fresh"], False
+        return GOOD if ok else Plan(False, reason="no path from (0.00, 0.00) to (5.00, 0.00)")
+
+    recs = [ClearingRecovery("conservative_reset"), ClearingRecovery("rotate_recovery", steps=3)]
+    core = MoveBaseCore(core_params(planner_patience=1.0, max_recovery_restarts=2), planner,
+                        FakeController(ok=False), recs)
+    core.set_goal((5.0, 0.0, 0.0), 0.0, POSE)
+    outcome, text, _, _ = run(core, n=1000)
+    assert outcome == "aborted" and text.startswith("Failed to find a valid plan even after executing"), text
+    assert "started over" not in text
+    assert [r.started for r in recs] == [1, 1]
+    # a robot that got on (here: 0.6 m a cycle) between the recovery and the plan made progress,
+    # and the list starts over, up to max_recovery_restarts
+    recs = [ClearingRecovery("conservative_reset"), ClearingRecovery("rotate_recovery", steps=3)]
+    core = MoveBaseCore(core_params(planner_patience=1.0, max_recovery_restarts=2), planner,
+                        FakeController(ok=False), recs)
+    core.set_goal((5.0, 0.0, 0.0), 0.0, POSE)
+    outcome, text, _, _ = run(core, pose=lambda t: (3.0 * t, 0.0, 0.0), n=1000)
+    assert outcome == "aborted" and "started over 3 times" in text, text
+    assert [r.started for r in recs] == [3, 0]
+
+
 # --- Florence: waiting for people ------------------------------------------------------------------
 class FakePeople:
     """People in the way while ``blocked(now)``; give way to ``aside`` (or nowhere)."""

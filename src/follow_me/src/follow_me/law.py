@@ -39,6 +39,7 @@ from florence_common.params import Param, ParamTable
 FOLLOWING, SEARCHING = "following", "searching"
 SEARCH_PATIENCE = 2.0  # [s] a search held up this long on its way to where the person was seen looks from there
 SEARCH_PROGRESS = 0.05  # [m] the robot moving this far counts as not held up
+STILL_SPEED = 0.2  # [m/s] a person last seen slower than this was standing (or sitting) still
 SEARCH_LOOKAHEAD = 0.35  # [m] on the trail while searching: through the doorway they took, not across its jamb
 CORNER_SPACING = 0.3  # [m] between the trail's points measured for the distance along it (a jittery track's
 # 0.1 m steps would add length of their own)
@@ -241,20 +242,26 @@ class Follower:
         to the place they were last seen, along their trail: a place somebody stood, where the robot
         fits; their expected place, carried on by their velocity, may be behind the wall they turned
         around (the robot pushed into a bedroom door's jamb for 8 s while she walked on out of view).
-        When the robot does not move on for SEARCH_PATIENCE s (an obstacle in the way: the collision
+        A person last seen standing still (slower than STILL_SPEED) may stand there yet, unseen by the
+        tracker close up: the robot goes no nearer than the desired distance to the place (it drove to
+        within 0.54 m of a person who stopped 1.1 m before it and whom the tracker dropped there). When the
+        robot does not move on for SEARCH_PATIENCE s (an obstacle in the way: the collision
         monitor holds it), it looks from where it is. Along the trail it steers SEARCH_LOOKAHEAD ahead,
         through the doorway the person took rather than across its jamb."""
         g = self.gains
         text = f"searching for {person.pid}, unseen for {unseen:.1f} s"
         seen_at = math.dist(robot[:2], person.xy)
-        if self._phase == "go" and seen_at > self.search_standoff + 0.05:  # to where they were last seen
+        # where a person standing still was lost, they may stand yet: no nearer than the desired distance
+        still = math.hypot(*person.velocity) < STILL_SPEED
+        standoff = max(self.search_standoff, self.limits.desired_distance) if still else self.search_standoff
+        if self._phase == "go" and seen_at > standoff + 0.05:  # to where they were last seen
             if self._moved is None or math.dist(robot[:2], self._moved[1]) >= SEARCH_PROGRESS:
                 self._moved = (t, (float(robot[0]), float(robot[1])))
             if t - self._moved[0] <= SEARCH_PATIENCE:
                 target = self._steer_point(robot, person.xy, min(g.lookahead, SEARCH_LOOKAHEAD))
                 tx, ty = pose2d.transform_points(pose2d.inverse(robot), [target])[0]
                 theta = math.atan2(ty, tx)
-                v = min(g.search_speed, g.k_distance * seen_at) * max(0.0, math.cos(theta))
+                v = min(g.search_speed, g.k_distance * (seen_at - standoff)) * max(0.0, math.cos(theta))
                 v, w = self._command(v, g.k_bearing * theta)
                 return Step(v, w, SEARCHING, local, distance, text + ": going to where they were last seen")
             text += f" (held up for {SEARCH_PATIENCE:g} s)"

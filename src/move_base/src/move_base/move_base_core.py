@@ -77,8 +77,9 @@ PARAMS = ParamTable(
     # Florence addition (-1 = ROS: no limit). A robot shuffling on the spot in a doorway restarted
     # the recovery list for ever in ROS.
     Param("max_recovery_restarts", int, -1, "Florence: how often the recovery list may start over from its first "
-          "entry after apparent progress (moved oscillation_distance, a plan or a command found again) before "
-          "the goal is aborted (-1: no limit, ROS)", ge=-1),
+          "entry after progress (moved oscillation_distance; a plan or a command found again counts once the "
+          "robot moved oscillation_distance since the last recovery began) before the goal is aborted "
+          "(-1: no limit, ROS)", ge=-1),
     Param("person_wait_timeout", float, 0.0, "Florence: when people stand in the way (no plan, but one on the "
           "maps alone; or no trajectory that keeps min_person_distance), wait this long for them, replanning "
           "every cycle, before the recoveries run; the robot goes on as soon as the way is free, and the waits "
@@ -120,6 +121,7 @@ class _GoalState:
     oscillation_pose: tuple = (0.0, 0.0)
     planning_retries: int = 0
     recovery_restarts: int = 0
+    recovery_pose: tuple = (math.nan, math.nan)  # where the last recovery began
     last_plan_time: float = -math.inf
     have_plan: bool = False
     reasons: dict = field(default_factory=dict)
@@ -253,7 +255,7 @@ class MoveBaseCore:
             if g.state == PLANNING:
                 g.state = CONTROLLING
                 if g.trigger == PLANNING_R:
-                    self._restart_recoveries(g)
+                    self._restart_recoveries(g, pose)
             return None
         g.reasons[PLANNING_R] = plan.reason
         if getattr(plan, "permanent", False):
@@ -292,7 +294,7 @@ class MoveBaseCore:
             g.last_valid_control = now
             self._leave_wait(now)
             if g.trigger == CONTROLLING_R:
-                self._restart_recoveries(g)
+                self._restart_recoveries(g, pose)
             result.cmd = tuple(cmd)
             return result
         g.reasons[CONTROLLING_R] = reason
@@ -318,6 +320,7 @@ class MoveBaseCore:
                 return self._abort(f"{self._final_text()} (the recovery behaviours started over "
                                    f"{g.recovery_restarts} times: max_recovery_restarts {p.max_recovery_restarts})")
             g.recovery = self.recoveries[g.recovery_index]
+            g.recovery_pose = (pose[0], pose[1])
             log.info("running recovery behaviour %d: %s", g.recovery_index, g.recovery.name)
             g.recovery.start(now, tuple(pose))
             started = g.recovery.name
@@ -439,10 +442,18 @@ class MoveBaseCore:
         if to_goal <= g.wait_goal_distance - self.params.oscillation_distance:
             g.waited, g.wait_goal_distance, g.waited_out, g.gave_way = 0.0, None, False, 0
 
-    @staticmethod
-    def _restart_recoveries(g):
-        if g.recovery_index > 0:
-            g.recovery_restarts += 1
+    def _restart_recoveries(self, g, pose=None):
+        """Progress: the next failure starts the recovery list from its first entry. A plan or a
+        command found again (``pose`` given) counts only once the robot has moved oscillation_distance
+        from where the last recovery began (Florence; ROS restarts at once): a plan found through a
+        freshly cleared costmap that leads nowhere restarted conservative_reset again and again, so
+        the rotations, which let the sensors see round the robot, never ran."""
+        if g.recovery_index == 0:
+            return
+        if pose is not None and math.hypot(pose[0] - g.recovery_pose[0], pose[1] - g.recovery_pose[1]) < \
+                self.params.oscillation_distance:
+            return
+        g.recovery_restarts += 1
         g.recovery_index = 0
 
     def _final_text(self):
