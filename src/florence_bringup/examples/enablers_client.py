@@ -16,17 +16,18 @@ the servers' defaults. Exit status 0 when the goal ended as asked.
 import argparse
 import sys
 
-import actionlib
 import rospy
 from actionlib_msgs.msg import GoalStatus
 from approach_me.msg import ApproachMeAction, ApproachMeGoal
 from follow_me.msg import FollowMeAction, FollowMeGoal
 
+from florence_common_ros.actions import SimpleActionClient
+
 NAMES = {v: k for k, v in vars(GoalStatus).items() if isinstance(v, int) and k.isupper()}
 
 
 def client_of(name, action):
-    client = actionlib.SimpleActionClient(name, action)
+    client = SimpleActionClient(name, action)
     if not client.wait_for_server(rospy.Duration(30.0)):
         raise SystemExit(f"no {name} action server (is florence_bringup.launch running?)")
     return client

@@ -27,7 +27,7 @@ def nav(rospy_node):
     from florence_common_ros.mock_move_base import MockMoveBase, Reply
 
     behaviour = {"reply": Reply("succeeded", 0.3)}
-    MockMoveBase(name="sent_goal_nav", policy=lambda *_goal: behaviour["reply"])
+    behaviour["mock"] = MockMoveBase(name="sent_goal_nav", policy=lambda *_goal: behaviour["reply"])
     client = actionlib.SimpleActionClient("sent_goal_nav", MoveBaseAction)
     assert client.wait_for_server(rospy_node.Duration(10))
     return client, behaviour
@@ -104,4 +104,53 @@ def test_a_replaced_goal_is_no_longer_polled(nav):
         client.cancel_all_goals()
         assert _until(lambda: new.done, 10, poll=new.poll)
     finally:
+        behaviour["reply"] = Reply("succeeded", 0.3)
+
+
+@pytest.mark.parametrize("locked", [False, True])
+def test_a_goal_answered_before_send_goal_returns_ends_with_our_client_only(nav, locked):
+    """ros/actionlib#206: send_goal publishes the goal, then assigns its handle. Here the window is
+    held open until the server's result has come in (on a loaded machine the client's thread may
+    wait that long for a core): actionlib's client drops the result and wait_for_result runs out;
+    ours takes it."""
+    import actionlib
+    import rospy
+    from actionlib_msgs.msg import GoalStatus
+    from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
+
+    from florence_common_ros.actions import SimpleActionClient
+    from florence_common_ros.convert import pose_stamped
+    from florence_common_ros.mock_move_base import Reply
+
+    _client, behaviour = nav
+    client = (SimpleActionClient if locked else actionlib.SimpleActionClient)("sent_goal_nav", MoveBaseAction)
+    assert client.wait_for_server(rospy.Duration(10))
+    manager = client.action_client.manager
+    publish = manager.send_goal_fn
+
+    answered = behaviour["mock"].outcomes
+
+    def publish_then_stall(action_goal):  # until the server has sent its answer
+        before = len(answered)
+        publish(action_goal)
+        assert _until(lambda: len(answered) > before, 10), "no answer from the server"
+        if locked:  # our client's subscribers wait for send_goal: give the answer time to reach them
+            time.sleep(0.3)
+        else:  # actionlib's took it, in the handle send_goal has not returned yet
+            assert _until(lambda: any(c.action_goal.goal_id.id == action_goal.goal_id.id and c.latest_result
+                                      for c in manager._get_live_statuses()), 10), "the result did not come"
+
+    behaviour["reply"] = Reply("aborted", 0.0, "at once")
+    manager.send_goal_fn = publish_then_stall
+    try:
+        client.send_goal(MoveBaseGoal(target_pose=pose_stamped(1.0, 0.0, 0.0, "map")))
+        manager.send_goal_fn = publish
+        ended = client.wait_for_result(rospy.Duration(3.0))
+        assert client.get_goal_status_text() == "at once"  # the client's goal handle heard it either way
+        if locked:
+            assert ended and client.get_state() == GoalStatus.ABORTED
+        else:
+            assert not ended, "actionlib's client took the result: the race this client exists for is gone"
+    finally:
+        manager.send_goal_fn = publish
         behaviour["reply"] = Reply("succeeded", 0.3)

@@ -10,9 +10,9 @@ pytestmark = pytest.mark.ros
 
 @pytest.fixture(scope="module")
 def toy(rospy_node):
-    import actionlib
     from actionlib.msg import TestAction, TestResult
 
+    from florence_common_ros.actions import SimpleActionClient
     from florence_common_ros.behaviour import Behaviour, succeeded
 
     class Toy(Behaviour):
@@ -48,7 +48,7 @@ def toy(rospy_node):
             return TestResult(result=-1)
 
     server = Toy()
-    client = actionlib.SimpleActionClient("toy_behaviour", TestAction)
+    client = SimpleActionClient("toy_behaviour", TestAction)
     assert client.wait_for_server(rospy_node.Duration(10))
     yield server, client
 

@@ -7,17 +7,17 @@ pytestmark = pytest.mark.ros
 
 
 def test_scripted_outcomes_and_make_plan(rospy_node):
-    import actionlib
     from actionlib_msgs.msg import GoalStatus
     from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
     from nav_msgs.srv import GetPlan
 
+    from florence_common_ros.actions import SimpleActionClient
     from florence_common_ros.convert import pose_stamped
     from florence_common_ros.mock_move_base import MockMoveBase, Reply
 
     mock = MockMoveBase(name="mock_nav", blocked=lambda x, y: y > 5.0,
                         policy=lambda x, y, yaw, frame: Reply("aborted" if x < 0 else "succeeded", 0.1))
-    client = actionlib.SimpleActionClient("mock_nav", MoveBaseAction)
+    client = SimpleActionClient("mock_nav", MoveBaseAction)
     assert client.wait_for_server(rospy_node.Duration(10))
     outcomes = []
     for x, y in ((1.0, 2.0), (-1.0, 0.0), (0.0, 6.0)):

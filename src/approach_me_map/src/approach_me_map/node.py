@@ -37,7 +37,6 @@ import dataclasses
 import math
 import threading
 
-import actionlib
 import numpy as np
 import rospy
 import tf2_ros
@@ -54,7 +53,7 @@ from detect_users.msg import DetectedUser
 from florence_common import pose as pose2d
 from florence_common.params import FRAME, Param, ParamTable
 from florence_common_ros import convert
-from florence_common_ros.actions import SentGoal, server_ready, state_name
+from florence_common_ros.actions import SentGoal, SimpleActionClient, server_ready, state_name
 from florence_common_ros.diagnostics import OK, WARN, Diagnostics
 from florence_common_ros.node import publish_stop, read_params, run
 from florence_common_ros.transforms import lookup_matrix
@@ -133,7 +132,7 @@ class ApproachMeMapNode:
 
         self.tf_buffer = tf2_ros.Buffer(cache_time=rospy.Duration(10.0))
         self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
-        self.client = actionlib.SimpleActionClient("move_base", MoveBaseAction)
+        self.client = SimpleActionClient("move_base", MoveBaseAction)
         self.make_plan = rospy.ServiceProxy("move_base/make_plan", GetPlan)
 
         self.status_pub = rospy.Publisher("approach_user/status", String, queue_size=5)

@@ -3,6 +3,7 @@ for ever in ``wait_for_server``)."""
 
 import threading
 
+import actionlib
 from actionlib_msgs.msg import GoalStatus
 
 STATE_NAMES = {v: k for k, v in vars(GoalStatus).items() if isinstance(v, int) and k.isupper()}
@@ -16,6 +17,31 @@ def state_name(state):
 ACTIVE_STATES = (GoalStatus.ACTIVE, GoalStatus.PREEMPTING)
 DONE_STATES = (GoalStatus.PREEMPTED, GoalStatus.SUCCEEDED, GoalStatus.ABORTED, GoalStatus.REJECTED,
                GoalStatus.RECALLED, GoalStatus.LOST)
+
+
+class SimpleActionClient(actionlib.SimpleActionClient):
+    """actionlib's SimpleActionClient without its ``send_goal`` race (ros/actionlib#206, never fixed
+    in ROS 1): the client assigns its goal handle only after the goal is published, and a server
+    that answers within that window (a goal refused at once, on a loaded machine) has its status
+    and result dropped ("Got a transition callback on a goal handle that we're not tracking"):
+    ``wait_for_result`` then waits for ever. Here ``send_goal`` and the transition and feedback
+    callbacks take one lock, so a transition waits until the handle it belongs to is known."""
+
+    def __init__(self, ns, action_spec):
+        self._send_lock = threading.RLock()
+        super().__init__(ns, action_spec)
+
+    def send_goal(self, goal, done_cb=None, active_cb=None, feedback_cb=None):
+        with self._send_lock:
+            super().send_goal(goal, done_cb=done_cb, active_cb=active_cb, feedback_cb=feedback_cb)
+
+    def _handle_transition(self, gh):
+        with self._send_lock:
+            super()._handle_transition(gh)
+
+    def _handle_feedback(self, gh, feedback):
+        with self._send_lock:
+            super()._handle_feedback(gh, feedback)
 
 
 def server_ready(client):

@@ -31,6 +31,7 @@ from nav_msgs.msg import Path
 from nav_msgs.srv import GetPlan, GetPlanResponse
 
 from florence_common.params import Param, ParamTable
+from florence_common_ros.actions import SimpleActionClient
 from florence_common_ros.convert import to_xyyaw, transform_stamped
 from florence_common_ros.node import read_params, run
 
@@ -56,7 +57,7 @@ class MockMoveBase:
         self.tf = tf2_ros.TransformBroadcaster() if publish_tf else None
         self.pose = (0.0, 0.0, 0.0)
         self.server = actionlib.SimpleActionServer(name, MoveBaseAction, execute_cb=self._execute, auto_start=False)
-        self.simple_client = actionlib.SimpleActionClient(name, MoveBaseAction)
+        self.simple_client = SimpleActionClient(name, MoveBaseAction)
         self.simple_sub = rospy.Subscriber(f"{name}_simple/goal", PoseStamped, self._on_simple_goal, queue_size=1)
         self.plan_srv = rospy.Service(f"{name}/make_plan", GetPlan, self._make_plan)
         if self.tf is not None:

@@ -15,7 +15,6 @@ import itertools
 import math
 import time
 
-import actionlib
 import numpy as np
 import rosgraph
 import rospy
@@ -25,6 +24,7 @@ from std_msgs.msg import String, UInt32
 
 from florence_common import pose as pose2d
 from florence_common.processes import roslaunch, wait_for
+from florence_common_ros.actions import SimpleActionClient
 from florence_eval.people_session import PeopleSession, _registered
 
 TELEOP = "/cmd_vel_mux/input/teleop"
@@ -74,8 +74,8 @@ class EnablersSession(PeopleSession):
         self.states = {"follow_me": [], "approach_me": []}  # (t, text)
         self.commands = {"mux": [], "monitor": [], "filter": []}  # (t [sim s], wall [s], v, w)
         self.feedback = []  # (t, action, x, y) in the robot frame
-        self.follow_client = actionlib.SimpleActionClient("follow_me", FollowMeAction)
-        self.approach_client = actionlib.SimpleActionClient("approach_me", ApproachMeAction)
+        self.follow_client = SimpleActionClient("follow_me", FollowMeAction)
+        self.approach_client = SimpleActionClient("approach_me", ApproachMeAction)
         self.subs += [
             rospy.Subscriber("/collisions", UInt32, self._on_collisions, queue_size=10),
             rospy.Subscriber("/collision_monitor/state", MonitorState, self._on_monitor, queue_size=50),

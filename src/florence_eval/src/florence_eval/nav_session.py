@@ -10,7 +10,6 @@ import math
 import threading
 import time
 
-import actionlib
 import numpy as np
 import rospy
 from actionlib_msgs.msg import GoalStatus
@@ -20,6 +19,7 @@ from nav_msgs.srv import GetPlan
 from std_msgs.msg import UInt32
 
 from florence_common_ros import convert
+from florence_common_ros.actions import SimpleActionClient
 
 STATE_NAMES = {v: k for k, v in vars(GoalStatus).items() if isinstance(v, int) and k.isupper()}
 
@@ -104,7 +104,7 @@ class NavSession(TruthRecorder):
 
     def __init__(self, action="move_base", record_people=True):
         super().__init__(record_people)
-        self.client = actionlib.SimpleActionClient(action, MoveBaseAction)
+        self.client = SimpleActionClient(action, MoveBaseAction)
         self._make_plan = None  # ~make_plan's proxy, made on first use
 
     def is_active(self):

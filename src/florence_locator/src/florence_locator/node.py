@@ -40,7 +40,6 @@ import queue
 import threading
 import time
 
-import actionlib
 import numpy as np
 import rosgraph
 import rospy
@@ -54,7 +53,7 @@ from detect_users.msg import DetectedUser
 from florence_common import pose as pose2d
 from florence_common.params import FRAME, Param, ParamTable
 from florence_common_ros import convert
-from florence_common_ros.actions import SentGoal, server_ready_within, state_name
+from florence_common_ros.actions import SentGoal, SimpleActionClient, server_ready_within, state_name
 from florence_common_ros.diagnostics import ERROR, OK, WARN, Diagnostics
 from florence_common_ros.node import read_params, run
 from florence_common_ros.transforms import lookup_matrix
@@ -113,7 +112,7 @@ class FlorenceLocatorNode:
 
         self.tf_buffer = tf2_ros.Buffer(cache_time=rospy.Duration(10.0))
         self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
-        self.client = actionlib.SimpleActionClient("move_base", MoveBaseAction)
+        self.client = SimpleActionClient("move_base", MoveBaseAction)
         self.goal = None  # the newest move_base goal (a SentGoal)
 
         self.cmd_pub = rospy.Publisher("detect_user/cmd", Bool, queue_size=5)

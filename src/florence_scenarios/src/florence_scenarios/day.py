@@ -35,7 +35,6 @@ import signal
 import time
 from dataclasses import dataclass, field
 
-import actionlib
 import numpy as np
 import rospy
 import yaml
@@ -51,6 +50,7 @@ from florence_common import pose as pose2d
 from florence_common.maps import map_file
 from florence_common.processes import ManagedProcess, pid_alive, rosrun, wait_for
 from florence_common.pty_device import PtyKeyboard
+from florence_common_ros.actions import SimpleActionClient
 from florence_common_ros.convert import to_xyyaw
 from florence_eval import enablers_metrics, locator_metrics
 from florence_scenarios import judge
@@ -142,8 +142,8 @@ class DaySession(LocatorSession):
         self.filtered_tracks = []  # (t, {pid: (x, y)}) in the tracker's frame (odom)
         self.follow_feedback = []  # (t, x, y) in the robot frame
         self.follow_states = []  # (t, text) of follow_me_node/state
-        self.follow_client = actionlib.SimpleActionClient("follow_me", FollowMeAction)
-        self.approach_client = actionlib.SimpleActionClient("approach_me", ApproachMeAction)
+        self.follow_client = SimpleActionClient("follow_me", FollowMeAction)
+        self.approach_client = SimpleActionClient("approach_me", ApproachMeAction)
         self.subs += [
             rospy.Subscriber("/amcl_pose", PoseWithCovarianceStamped, self._on_amcl, queue_size=20),
             rospy.Subscriber("/filtered_tracked_users", TrackedUsers, self._on_filtered_tracks, queue_size=20),
