@@ -218,19 +218,24 @@ class PersonBehaviour(Behaviour):
         self.cmd.publish(msg)
 
     def drive(self, v, w, text):
-        """Send a command and say what the robot does."""
-        self.publish(v, w)
-        self.status = (text, v, w)
-        self.state_pub.publish(String(text))
+        """Send a command and say what the robot does; nothing once the goal was halted (a cancel
+        comes on the action server's thread, maybe while this cycle computes its command)."""
+        with self.lock:
+            if not self.commanding:
+                return
+            self.publish(v, w)
+            self.status = (text, v, w)
+            self.state_pub.publish(String(text))
 
     def halt(self):
+        """Stop the robot: one zero command, under the lock, so that no cycle's command follows it."""
         with self.lock:
             was, self.commanding = self.commanding, False
             if self.controller is not None:
                 self.controller.stop()
-        if was:
-            self.publish(0.0, 0.0)
-            self.state_pub.publish(String("idle"))
+            if was:
+                self.publish(0.0, 0.0)
+                self.state_pub.publish(String("idle"))
 
     # --- diagnostics -------------------------------------------------------------------------------
     def diagnose(self, stat):
