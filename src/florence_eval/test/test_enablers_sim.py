@@ -70,7 +70,7 @@ def test_follows_a_person_through_a_doorway(sim, speed):
     (14 runs, 27 Nov; 1.0 m was the bound and failed 3 times), she is at most 2.25 m ahead, well within what
     the tracker sees; turning into the corridor in the doorway it may lose sight of her for a moment (the
     laser sees +-90 degrees) and find her again: 89.4 % of the walk once in 14 runs, 93.8 % once (the tracker
-    dropped her standing 1.1 m ahead and the search drove up to her), 98.7-100 % in the
+    dropped her standing 1.1 m ahead and the search drove up to her, as it no longer does), 98.7-100 % in the
     12 others."""
     session, proc = sim
     result = session.follow_trial(START, "alice", DOORWAY_PATH, speed, RED)

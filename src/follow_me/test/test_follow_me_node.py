@@ -128,12 +128,14 @@ def test_a_person_who_vanishes_is_searched_for_then_lost(node):
     client.send_goal(goal(2.0, 0.0))
     wait_for(lambda: states and "following 7" in states[-1], 10, what="following")
     people["now"] = {8: (1.2, 4.0)}  # 7 is gone; 8, seen with them before, steps in: not taken for them
-    wait_for(lambda: "searching for 7" in states[-1], 5, what="the search")
-    state, text, _ = finish(client, 10.0)
-    assert state == GoalStatus.ABORTED and "person lost" in text, text
-    # the zero goes out before the result, on another connection: it may arrive after it
-    wait_for(lambda: states[-1] == "idle" and cmds[-1][1:] == (0.0, 0.0), 5, what="idle and a zero command")
-    people["now"] = {7: (1.0, 4.0), 8: (3.0, 2.0)}
+    try:
+        wait_for(lambda: "searching for 7" in states[-1], 5, what="the search")
+        state, text, _ = finish(client, 10.0)
+        assert state == GoalStatus.ABORTED and "person lost" in text, text
+        # the zero goes out before the result, on another connection: it may arrive after it
+        wait_for(lambda: states[-1] == "idle" and cmds[-1][1:] == (0.0, 0.0), 5, what="idle and a zero command")
+    finally:  # the next tests' scene, also when this one failed
+        people["now"] = {7: (1.0, 4.0), 8: (3.0, 2.0)}
 
 
 def test_the_manuals_python_example_follows_then_cancels(node, ros_master):
