@@ -411,3 +411,58 @@ def test_facing_stays_unknown_until_enough_frames_agree():
     for k in range(int(RATE)):  # nothing said
         tracker.update(k / RATE, [kinect(2.0, 1.0, RED, rng)], KINECT)
     assert tracker.published()[0].facing(p) is None
+
+
+@pytest.mark.parametrize("hold", [0.0, TrackerParams.seated_laser_hold])
+def test_a_seated_person_s_legs_in_front_of_her_do_not_pull_her_track_while_the_kinect_sees_her(hold):
+    """Seated at (2, 1) facing 160 deg, her legs 0.3 m in front of her torso (an adult's shins stand
+    0.4-0.5 m out): the laser's leg pair there, at half the Kinect's rate, pulled her track 0.18-0.19 m
+    toward them (hold 0, 5 seeds); kept but not followed, her track stays on the Kinect's torso
+    (0.02-0.03 m). When she gets up and walks off out of the Kinect's view, the laser moves her track
+    again once the Kinect has not seen her seated for seated_laser_hold."""
+    rng = np.random.default_rng(5)
+    tracker = Tracker(TrackerParams(seated_laser_hold=hold))
+    facing = math.radians(160)
+    legs = (2.0 + 0.3 * math.cos(facing), 1.0 + 0.3 * math.sin(facing))
+    errors = []
+    for k in range(int(4 * RATE)):
+        t = k / RATE
+        det = kinect(2.0, 1.0, RED, rng)
+        tracker.update(t, [Detection(det.x, det.y, KINECT, 0.08, RED, facing=facing + rng.normal(0, 0.2))], KINECT)
+        if k % 2:  # the laser at about half the Kinect's rate, between its frames
+            tracker.update(t + 0.03, [laser(*legs, rng)], LASER)
+        if t >= 1.0:
+            (track,) = tracker.published()
+            errors.append(math.hypot(track.position[0] - 2.0, track.position[1] - 1.0))
+    if hold:
+        assert np.mean(errors) < 0.04, np.mean(errors)
+    else:
+        assert np.mean(errors) > 0.1, np.mean(errors)
+    # she stands up and walks off along -y at 0.6 m/s, out of the Kinect's view: the laser moves her track
+    t0 = 4 * RATE / RATE
+    for k in range(1, int(3 * RATE)):
+        t = t0 + k / RATE
+        tracker.update(t, [laser(legs[0], legs[1] - 0.6 * k / RATE, rng)], LASER)
+    (track,) = tracker.published()
+    assert track.position[1] == pytest.approx(legs[1] - 0.6 * 3, abs=0.25), track.position
+
+
+def test_a_seated_person_who_gets_up_and_walks_off_at_once_is_followed_by_the_laser():
+    """The Kinect saw her seated a moment ago, then the robot turned away: she gets up and walks off
+    along -y at 0.6 m/s, seen by the laser alone. Her legs leaving where they stood ends the seated
+    hold at once; the track goes with her and is not left behind (nor dropped)."""
+    rng = np.random.default_rng(6)
+    tracker = Tracker()
+    facing = math.radians(160)
+    legs = (2.0 + 0.3 * math.cos(facing), 1.0 + 0.3 * math.sin(facing))
+    t = 0.0
+    for k in range(int(2 * RATE)):
+        t = k / RATE
+        det = kinect(2.0, 1.0, RED, rng)
+        tracker.update(t, [Detection(det.x, det.y, KINECT, 0.08, RED, facing=facing + rng.normal(0, 0.2))], KINECT)
+        tracker.update(t + 0.03, [laser(*legs, rng)], LASER)
+    for k in range(1, int(0.8 * RATE)):  # within seated_laser_hold of the last Kinect frame
+        tracker.update(t + k / RATE, [laser(legs[0], legs[1] - 0.6 * k / RATE, rng)], LASER)
+    (track,) = tracker.published()
+    assert track.seated_at is None
+    assert math.hypot(track.position[0] - legs[0], track.position[1] - (legs[1] - 0.6 * 0.8)) < 0.2, track.position
