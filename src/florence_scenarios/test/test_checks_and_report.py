@@ -115,6 +115,7 @@ def test_report_files(tmp_path):
     assert "- [x] gotoUser: SUCCEEDED: SUCCEEDED" in text
     assert "| gotoUser | gotoUser | SUCCEEDED | 61.2 | 0.52 m from the user |" in text
     assert "x must be finite" in text and "0.5 cores" in text.replace("0.50 cores", "0.5 cores")
+    assert "without florence_sim, which stands in for the base, the sensors and their drivers: 0.30 cores" in text
     for png in ("paths.png", "follow.png", "cpu.png"):
         assert (tmp_path / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
         assert "![" in text and png in text

@@ -160,8 +160,10 @@ def run(args, master, processes):
     from map_server.mapfile import load_map
 
     text, passed = report.write(args.output, record, load_map(str(map_file("apartment", "apartment.yaml"))))
+    robot = report.robot_cpu(cpu, cpu_total)
     print(f"demo: the day took {sim_s:.0f} simulated s in {wall_s:.0f} wall s (real-time factor "
-          f"{sim_s / max(wall_s, 1e-6):.2f}); the whole system {cpu_total:.2f} cores at real time", flush=True)
+          f"{sim_s / max(wall_s, 1e-6):.2f}); the whole system {cpu_total:.2f} cores at real time"
+          + (f", {robot:.2f} without the simulator" if robot is not None else ""), flush=True)
     for heading, group in sections.items():
         print(f"demo: {heading}: {'all passed' if group.passed else 'FAILED: ' + '; '.join(group.failed())}",
               flush=True)
