@@ -178,6 +178,37 @@ def test_stale_sensors_stop_the_robot_then_abort_saying_so():
     assert outcome == "aborted" and "Sensor data is out of date" in text and "/filtered_scan" in text
 
 
+@pytest.mark.parametrize("blind", ["sensors", "pose"])
+def test_standing_blind_does_not_count_toward_oscillation(blind):
+    """A new goal, then 10 s with stale sensors (or no pose), then the sensors are back and the robot
+    drives off: standing for them is not oscillating (oscillation_timeout 10 s, controller_patience 15 s).
+    The ROS rule (the clock runs on) sent such a robot into its recoveries at once."""
+    fresh = {"ok": False}
+    rec = FakeRecovery("conservative_reset")
+    core = MoveBaseCore(core_params(oscillation_timeout=10.0, controller_patience=15.0), FakePlanner([GOOD]),
+                        FakeController(reached_after=200), [rec],
+                        sensors_current=lambda: (fresh["ok"] or blind != "sensors", "scan last seen 3.1 s ago"))
+    core.set_goal((5.0, 0.0, 0.0), 0.0, POSE)
+    for i in range(55):  # 11 s blind
+        r = core.cycle(i * 0.2, None if blind == "pose" else POSE)
+        assert r.outcome is None and r.cmd == (0.0, 0.0, 0.0)
+    fresh["ok"] = True
+    drove = []
+    for i in range(55, 90):  # the sensors back; the robot sets off, slowly (0.1 m in the first 7 s)
+        t = i * 0.2
+        r = core.cycle(t, (0.015 * (t - 11.0), 0.0, 0.0))
+        drove.append(r.cmd)
+    assert rec.started == 0 and core.state == CONTROLLING, core.state
+    assert all(c == (0.3, 0.0, 0.1) for c in drove)
+    # the clock ran again from the moment the robot could drive (11 s): never 0.5 m on, the recoveries
+    # come 10 s later
+    for i in range(90, 200):
+        core.cycle(i * 0.2, (0.1, 0.0, 0.0))
+        if rec.started:
+            break
+    assert rec.started == 1 and 21.0 - 0.3 <= i * 0.2 <= 21.0 + 0.5, i * 0.2
+
+
 def test_no_pose_is_a_transform_timeout():
     core = MoveBaseCore(core_params(controller_patience=1.0), FakePlanner([GOOD]), FakeController(), [])
     core.set_goal((3.0, 0.0, 0.0), 0.0, POSE)

@@ -118,6 +118,7 @@ class _GoalState:
     last_valid_plan: float = 0.0
     last_valid_control: float = 0.0
     last_oscillation_reset: float = 0.0
+    last_cycle: float | None = None  # [s] the previous cycle's time
     oscillation_pose: tuple = (0.0, 0.0)
     planning_retries: int = 0
     recovery_restarts: int = 0
@@ -191,6 +192,13 @@ class MoveBaseCore:
         if g is None:
             return CycleResult()
         p = self.params
+        since, g.last_cycle = (now - g.last_cycle if g.last_cycle is not None else 0.0), now
+        ok, why = self.sensors_current()
+        if pose is None or (not ok and g.state != CLEARING):
+            # blind: standing for tf or the sensors is not oscillating, and stops the oscillation clock
+            # (Florence; in ROS it runs on, and a robot that stood oscillation_timeout for its sensors
+            # goes into its recoveries the moment it can plan again)
+            g.last_oscillation_reset += since
         if pose is None:
             # tf could not place the robot: stop; the goal ends when controller_patience runs out
             g.reasons[CONTROLLING_R] = "transform timeout: no pose of the robot in the global frame"
@@ -208,7 +216,6 @@ class MoveBaseCore:
             if g.trigger == OSCILLATION_R:
                 self._restart_recoveries(g)
 
-        ok, why = self.sensors_current()
         if not ok and g.state != CLEARING:
             # ROS stops and waits for fresh data; the goal ends when controller_patience runs out.
             g.reasons[CONTROLLING_R] = f"sensor data is out of date: {why}"

@@ -684,6 +684,8 @@ class MoveBaseNode:
                               f": {result.text}" if result.text else "")
             elif self.core.state == WAITING and result.text.split(":")[0] != last_text.split(":", maxsplit=1)[0]:
                 rospy.loginfo(LOG + "%s", result.text)  # waiting <-> giving way
+            elif result.text.startswith(("sensor data is out of date", "transform timeout")):
+                rospy.logwarn_throttle(5.0, LOG + "standing: %s", result.text)
             last_text = result.text
             if result.outcome:
                 self._end(result.outcome, result.text)
