@@ -165,9 +165,6 @@ TRACKER = ParamTable(
           "Kinect frames that told a still user's facing before it is published ...", ge=1),
     Param("tracker/facing_agreement", float, TrackerParams.facing_agreement,
           "... and the length of the mean of their unit vectors (1: all agree)", ge=0, le=1),
-    Param("tracker/seated_laser_hold", float, TrackerParams.seated_laser_hold,
-          "a user the Kinect saw seated this recently (a facing told by the shins): the laser's legs, in front of "
-          "them, keep the track but do not move it (0: they always move it)", unit="s", ge=0),
 )
 
 FREE = ParamTable(

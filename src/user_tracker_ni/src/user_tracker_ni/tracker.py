@@ -90,9 +90,6 @@ class Detection:
     facing: float | None = None  # [rad] which way the person faces, in the fixed frame (Kinect, seated people)
 
 
-SEATED_LEGS_STIR = 0.2  # [m] a seated person's legs moving this far from where they stood: she gets up
-
-
 @dataclass(frozen=True)
 class TrackerParams:
     kinect_gate: float = 0.6  # [m] largest distance of a Kinect detection to a track it updates
@@ -122,8 +119,6 @@ class TrackerParams:
     facing_walk_speed: float = 0.3  # [m/s] a person this fast faces the way they walk
     facing_frames: int = 3  # Kinect frames that told a still person's facing before it is published ...
     facing_agreement: float = 0.6  # ... and the length of the mean of their unit vectors (1: all agree)
-    seated_laser_hold: float = 1.0  # [s] a person the Kinect saw seated this recently (a facing told by her shins):
-    # the laser's legs, in front of her, keep the track but do not move it (0: they always move it)
 
     def validate(self):
         for name in ("kinect_gate", "laser_gate", "laser_confirm_distance", "timeout", "tentative_timeout",
@@ -143,8 +138,6 @@ class TrackerParams:
             raise ValueError("need appearance_weight >= 0, 0 < appearance_gate <= 1, appearance_after >= 1")
         if not self.facing_walk_speed > 0 or self.facing_frames < 1 or not 0 <= self.facing_agreement <= 1:
             raise ValueError("need facing_walk_speed > 0, facing_frames >= 1 and 0 <= facing_agreement <= 1")
-        if not self.seated_laser_hold >= 0:
-            raise ValueError(f"seated_laser_hold must be >= 0, got {self.seated_laser_hold}")
         if not 0 < self.reid_threshold <= 1:
             raise ValueError(f"reid_threshold must be in (0, 1], got {self.reid_threshold}")
         return self
@@ -158,9 +151,6 @@ class Track:
     last_update: float  # [s] any sensor
     start: tuple  # (x, y) [m] where it started
     last_kinect: float | None = None  # [s]
-    seated_at: float | None = None  # [s] the Kinect saw the person seated (a detection with a facing, or a close
-    # sighting of one it saw seated)
-    seated_legs: tuple | None = None  # (x [m], y [m], n) where the laser sees a seated person's legs: their mean
     unseen_since: float | None = None  # [s] in the Kinect's clear view, not detected, since
     last_laser: float | None = None  # [s]
     kinect_hits: int = 0
@@ -273,8 +263,6 @@ class Tracker:
         track.sources.add(det.source)
         if det.source == KINECT:
             track.last_kinect = t
-            if self._seated(track, t):  # close up, the person it last saw seated
-                track.seated_at = t
         else:
             track.last_laser = t
 
@@ -350,30 +338,9 @@ class Tracker:
         self._maybe_confirm(track, t)
 
     def _apply(self, track, det, t, source):
-        if source == LASER and self._seated(track, t):
-            legs = track.seated_legs
-            if legs is None:
-                track.seated_legs = (det.x, det.y, 1)
-            elif math.hypot(det.x - legs[0], det.y - legs[1]) <= SEATED_LEGS_STIR:  # the mean of the last 20 or so
-                n = min(legs[2] + 1, 20)
-                track.seated_legs = (legs[0] + (det.x - legs[0]) / n, legs[1] + (det.y - legs[1]) / n, n)
-            else:  # her legs moved: she gets up
-                track.seated_at = track.seated_legs = None
-        if not (source == LASER and self._seated(track, t)):
-            track.filter.update((det.x, det.y), det.std)
+        track.filter.update((det.x, det.y), det.std)
         self._record(track, det, t, source)
         self._maybe_confirm(track, t)
-
-    def _seated(self, track, t):
-        """The Kinect saw the person seated (a detection with a facing: her shins in front of her torso)
-        within ``seated_laser_hold``: the laser sees her legs, which stand in front of her (0.14 m for
-        florence_sim's seated body, an adult's shins 0.4-0.5 m), so its detections keep the track alive
-        but do not move it. Detections without a facing for that long, or her legs moving more than
-        SEATED_LEGS_STIR from where they stood (she gets up), end it."""
-        hold = self.params.seated_laser_hold
-        if track.seated_at is not None and t - track.seated_at > hold:
-            track.seated_at = track.seated_legs = None
-        return hold > 0 and track.seated_at is not None
 
     def _crowded(self, track, det):
         """Another track within ``signature_clearance`` of the detection: the Kinect may have seen
@@ -394,7 +361,6 @@ class Tracker:
             track.last_kinect = t
             track.kinect_hits += 1
             if det.facing is not None and math.isfinite(det.facing):
-                track.seated_at = t
                 track.facing_sum = track.facing_sum + np.array([math.cos(det.facing), math.sin(det.facing)])
                 track.facing_count += 1
             if det.signature is not None and not self._crowded(track, det):
