@@ -281,3 +281,36 @@ def test_the_shift_path_equals_the_general_transform():
     (v, u), = np.argwhere(np.isfinite(out))
     assert (v, u) == (round(rgb.fy * q[1] / q[2] + rgb.cy), round(rgb.fx * q[0] / q[2] + rgb.cx))
     assert out[v, u] == pytest.approx(q[2])
+
+
+def admitted(gate, times):
+    return [t for t in times if gate.admit(t)]
+
+
+@pytest.mark.unit
+@pytest.mark.parametrize(("source", "rate", "expected"), [(30.0, 30.0, 30), (29.47, 30.0, 29.47), (36.0, 30.0, 30),
+                                                         (30.0, 20.0, 20), (60.0, 30.0, 30), (30.0, 7.5, 7.5)])
+def test_rate_gate_passes_a_source_up_to_its_rate_and_thins_a_faster_one_to_it(source, rate, expected):
+    rng = np.random.default_rng(1)
+    period = 1.0 / source
+    times = np.arange(int(20 * source)) * period + rng.uniform(-0.2, 0.2, int(20 * source)) * min(period, 1 / rate)
+    passed = admitted(kinect.RateGate(rate), times)
+    assert abs(len(passed) / 20.0 - expected) <= 0.2, (len(passed) / 20.0, expected)
+    passed = np.asarray(passed)  # and evenly: no second holds more than the rate and one frame
+    assert max(np.searchsorted(passed, t + 1.0) - i for i, t in enumerate(passed)) <= rate + 1
+
+
+@pytest.mark.unit
+def test_rate_gate_gives_no_burst_after_a_pause():
+    gate = kinect.RateGate(10.0)
+    assert len(admitted(gate, np.arange(0.0, 1.0, 0.1))) == 10
+    # 2 s without frames, then 100 Hz for 1 s: its first frame, one half a period later, then 10 Hz
+    resumed = admitted(gate, 3.0 + np.arange(100) * 0.01)
+    assert len(resumed) <= 11 and resumed[1] - resumed[0] >= 0.05 - 1e-9
+
+
+@pytest.mark.unit
+def test_rate_gate_refuses_a_rate_that_is_not_positive():
+    for rate in (0.0, -1.0, math.nan):
+        with pytest.raises(ValueError):
+            kinect.RateGate(rate)

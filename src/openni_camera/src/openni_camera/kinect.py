@@ -118,3 +118,33 @@ def tilt_degrees(raw):
 def tilt_raw(degrees):
     """The raw int8 reading of a tilt [deg] (half degrees, rounded)."""
     return int(max(-128, min(127, round(2.0 * float(degrees)))))
+
+
+# --- frame rate -------------------------------------------------------------------------------------------------------
+class RateGate:
+    """Lets frames through at most at ``rate`` [Hz], judged by the frames' own times [s].
+
+    Frames pass on a schedule of slots one period apart. A frame passes when it is at most a
+    quarter period early for the next slot, and then books the slot after it. A frame up to
+    three quarters of a period late for its slot keeps the schedule (the slot after is booked
+    one period after the one it took), so a faster source is thinned to the rate whatever the
+    phase of its frames (36 Hz to 30, 30 to 20 as two of three) and a source at the rate with
+    that much jitter passes whole. A frame later than that (a slower source, or a pause)
+    starts the schedule afresh, its next slot three quarters of a period after it: a source
+    that resumes after a pause gets no more than one frame half a period early. A gate
+    that booked from each frame's own time would lose what an early frame left over: 36 Hz
+    came out at 24, 30 at 15 for a rate of 20.
+    """
+
+    def __init__(self, rate):
+        if not rate > 0:
+            raise ValueError(f"rate must be > 0, got {rate!r}")
+        self.period = 1.0 / float(rate)
+        self.next = -math.inf
+
+    def admit(self, t):
+        if t + 0.25 * self.period < self.next:
+            return False
+        late = t - self.next
+        self.next = t + 0.75 * self.period if late > 0.75 * self.period else self.next + self.period
+        return True

@@ -81,20 +81,6 @@ PARAMS = ParamTable(
 )
 
 
-class Gate:
-    """Lets frames through at most at ``rate`` [Hz] (by the frames' own times)."""
-
-    def __init__(self, rate):
-        self.period = 1.0 / rate
-        self.next = -math.inf
-
-    def admit(self, t):
-        if t + 0.25 * self.period < self.next:  # a quarter period of jitter tolerated at the full rate
-            return False
-        self.next = max(self.next, t) + self.period
-        return True
-
-
 class OpenniCameraNode:
     def __init__(self):
         p = read_params(PARAMS)
@@ -107,7 +93,7 @@ class OpenniCameraNode:
         self.rgb_info = self._calibration("rgb", p["rgb_camera_info_url"], camera_info.default_rgb())
         self.registration = Registration(self.depth_info, self.rgb_info, p["rgb_offset"], baseline=p["baseline"],
                                          disparity_offset=p["disparity_offset"]).warm_up()
-        self.depth_gate, self.rgb_gate = Gate(p["depth_rate"]), Gate(p["rgb_rate"])
+        self.depth_gate, self.rgb_gate = kinect.RateGate(p["depth_rate"]), kinect.RateGate(p["rgb_rate"])
         self.lock = threading.Lock()
         self.rgb = None  # (host time [s], (H, W, 3) uint8) of the newest colour frame
         # the cloud's array, filled again every frame: rospy serialises a message within publish()
