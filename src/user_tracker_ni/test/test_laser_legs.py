@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 import pytest
-from user_tracker_ni.laser_legs import LegParams, detect, find_legs, pair_legs, scan_points
+from user_tracker_ni.laser_legs import LegParams, detect, find_legs, pair_legs, partner_hidden, scan_points
 
 from florence_common import pose
 
@@ -124,3 +124,21 @@ def test_beam_ends_for_free_space():
 def test_pairs_know_their_legs():
     people, members = pair_legs(np.array([[0.0, 0.0], [0.3, 0.0], [3.0, 3.0]]), P, members=True)
     assert members == [(0, 1), (2,)] and people[0] == pytest.approx((0.15, 0.0))
+
+
+def test_a_lone_leg_whose_partner_another_person_may_hide_is_told():
+    """Two people crossing, as the laser sees them: Alice's legs 1.9 m away; of Bob, 2.5 m away and
+    beside her line of sight, one leg in view and the other behind her. Bob's lone leg is told (his
+    centre may be a stride off it, toward her); a lone leg with nothing nearer beside it (its partner
+    behind itself), and a leg with a wall behind it, are not."""
+    ranges = render([(1.9, 0.1, 0.065), (1.9, -0.08, 0.065), (2.5, -0.3, 0.065)], walls=[3.5])
+    xy, valid = scan_points(ranges, AMIN, INC, 0.02, 5.6, IDENTITY)
+    legs = find_legs(xy, valid, (0.0, 0.0), P)
+    bob = legs[np.argmax(legs[:, 0])]
+    assert bob == pytest.approx((2.5, -0.3), abs=0.05)
+    assert partner_hidden(xy, valid, (0.0, 0.0), [bob], P).tolist() == [True]
+    alone = render([(2.5, -0.3, 0.065)], walls=[3.5])
+    xy, valid = scan_points(alone, AMIN, INC, 0.02, 5.6, IDENTITY)
+    (leg,) = find_legs(xy, valid, (0.0, 0.0), P)
+    assert partner_hidden(xy, valid, (0.0, 0.0), [leg], P).tolist() == [False]
+    assert partner_hidden(xy, valid, (0.0, 0.0), np.zeros((0, 2)), P).tolist() == []

@@ -122,9 +122,10 @@ def test_a_person_in_view_is_published_with_a_frame_and_markers(tracker, rospy_n
     from user_tracker_ni.msg import TrackedUsers
 
     node, pubs, got = tracker
-    markers, people = [], []
+    markers, people, detections = [], [], []
     sub = rospy_node.Subscriber("/user_tracker_ni_node/markers", MarkerArray, markers.append)
     people_sub = rospy_node.Subscriber("/tracked_people", TrackedUsers, people.append, queue_size=100)
+    detections_sub = rospy_node.Subscriber("/user_tracker_ni_node/detections", MarkerArray, detections.append)
     try:
         depth, rgb = _person_scene()
         msg = _feed_until(node, pubs, got, lambda m: m.num_users_tracked == 1, "one user",
@@ -143,9 +144,16 @@ def test_a_person_in_view_is_published_with_a_frame_and_markers(tracker, rospy_n
         everyone = [m for m in people if m.num_users_tracked][-1]
         assert list(everyone.user_ids) == list(everyone.user_ids_ni) == list(msg.user_ids_ni)
         assert (everyone.positions[0].x, everyone.positions[0].y) == pytest.approx((3.5, 2.3), abs=0.1)
+        # ~detections: the Kinect's detection of her, in the fixed frame, not partly hidden (green)
+        _feed_until(node, pubs, got, lambda m: any(m.ns == "kinect_detections" for a in detections for m in a.markers),
+                    "a detection marker", depth, rgb)
+        seen = [m for a in detections for m in a.markers if m.ns == "kinect_detections"][-1]
+        assert seen.header.frame_id == "odom" and seen.color.g > 0.5
+        assert (seen.pose.position.x, seen.pose.position.y) == pytest.approx((3.5, 2.3), abs=0.1)
     finally:
         sub.unregister()
         people_sub.unregister()
+        detections_sub.unregister()
 
 
 def test_bad_input_is_skipped_with_a_reason_and_tracking_goes_on(tracker, rospy_node):

@@ -411,3 +411,35 @@ def test_facing_stays_unknown_until_enough_frames_agree():
     for k in range(int(RATE)):  # nothing said
         tracker.update(k / RATE, [kinect(2.0, 1.0, RED, rng)], KINECT)
     assert tracker.published()[0].facing(p) is None
+
+
+@pytest.mark.parametrize("flagged", [True, False])
+def test_a_person_partly_hidden_keeps_their_track_on_their_line(flagged):
+    """A person 2.5 m from the camera (at the origin) walks across its view at 0.45 m/s; for 0.5 s
+    somebody nearer hides their leading side, and the Kinect's detections are the trailing side's
+    centroid, up to 0.25 m behind them; then for 0.4 s nobody sees them. Flagged as partly hidden (the
+    range good, the side not: across_std; the velocity not taught), the track keeps their speed and
+    ends 0.18 m behind them; taken at face value, it is dragged back and slowed, and ends 0.45 m off."""
+    rng = np.random.default_rng(3)
+    tracker = Tracker()
+    speed, k_hidden, k_gone, k_end = 0.45, int(3 * RATE), int(3.5 * RATE), int(3.9 * RATE)
+    for k in range(k_end):
+        t = k / RATE
+        y = -1.0 + speed * t
+        if k < k_hidden:
+            dets = [kinect(2.5, y, RED, rng)]
+        elif k < k_gone:
+            seen_y = y - 0.25 * (k - k_hidden + 1) / (k_gone - k_hidden)  # less and less of them in view
+            dets = [Detection(2.5 + rng.normal(0, 0.03), seen_y, KINECT, 0.08, RED,
+                              across_std=1.0 if flagged else None, sight=(2.5, seen_y) if flagged else None)]
+        else:
+            dets = []
+        tracker.update(t, dets, KINECT)
+    (track,) = tracker.published()
+    error = math.hypot(track.output(tracker.params.coast_limit)[0] - 2.5,
+                       track.output(tracker.params.coast_limit)[1] - (-1.0 + speed * (k_end - 1) / RATE))
+    if flagged:
+        assert error < 0.22, error
+        assert track.velocity[1] > 0.3, track.velocity
+    else:  # what the flag is for
+        assert error > 0.35, error

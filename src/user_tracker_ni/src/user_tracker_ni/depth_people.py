@@ -101,6 +101,9 @@ class DepthParams:
     close_radius: float = 0.35  # [m] how near the expected place its points lie
     close_depth: float = 0.3  # [m] and how far behind the nearest of them along the line of sight
     close_gate: float = 0.4  # largest colour difference (Bhattacharyya) of what is seen there and the person
+    occluder_margin: float = 0.3  # [m] something this much nearer than a person just beside them in the image ...
+    occluder_reach: int = 3  # [px, decimated] ... within this many pixels of their outline (the Kinect's edge gaps) ...
+    occluded_share: float = 0.3  # ... along at least this share of their rows on one side: they are partly hidden
 
     def validate(self):
         for name in ("min_range", "max_range", "cell", "min_width", "max_width", "max_depth", "body_reach",
@@ -119,6 +122,8 @@ class DepthParams:
                                         and self.close_depth > 0 and 0 < self.close_gate <= 1):
             raise ValueError("need close_range >= 0, 0 < close_min < upper_min, close_radius > 0, close_depth > 0 "
                              "and 0 < close_gate <= 1")
+        if self.occluder_margin <= 0 or self.occluder_reach < 1 or not 0 < self.occluded_share <= 1:
+            raise ValueError("need occluder_margin > 0, occluder_reach >= 1 and 0 < occluded_share <= 1")
         if self.target_width < 16 or self.min_points < 3:
             raise ValueError("target_width must be >= 16 and min_points >= 3")
         if not (0 <= self.fill_min < self.fill_max <= self.upper_min and 0 <= self.min_fill <= 1
@@ -138,6 +143,7 @@ class PersonDetection:
     points: int
     signature: np.ndarray | None = None
     facing: float | None = None  # [rad] in the base frame, a seated person's (module docstring, 5); None: unknown
+    occluded: bool = False  # partly hidden behind something nearer beside them in the image: the centre is off
 
 
 def detect(depth, camera, camera_pose, params, rgb=None):
@@ -223,8 +229,9 @@ def detect(depth, camera, camera_pose, params, rgb=None):
             if np.count_nonzero(torso) >= p.min_points:
                 sig = reid.signature(colour[vv[torso], uu[torso]])
         facing = None if posture == "standing" else _facing(pts[shins, :2], centroid, centre, p)
+        occluded = _occluded(d, vv[mine], uu[mine], p)
         people.append(PersonDetection(float(centre[0]), float(centre[1]), top, truncated, width, posture, count, sig,
-                                      facing))
+                                      facing, occluded))
     return people, rejected
 
 
@@ -322,6 +329,34 @@ def in_clear_view(depth, camera, camera_pose, points, params, height=1.1, margin
             nearer = np.count_nonzero(patch < z[k] - clearance)
         out[k] = nearer <= patch.size // 4
     return out
+
+
+def _occluded(d, rows, cols, p):
+    """Whether the person whose pixels of the decimated depth image ``d`` are (rows, cols) is partly
+    hidden: beyond their outline on the left or the right, within ``occluder_reach`` pixels,
+    something at least ``occluder_margin`` nearer than the nearest of them (the 2nd percentile of
+    their depths), along ``occluded_share`` of their rows. What is seen of them is then the side
+    that is not hidden, and its centroid lies off their centre."""
+    near = float(np.percentile(d[rows, cols], 2))
+    top, width = int(rows.min()), d.shape[1]
+    height = int(rows.max()) - top + 1
+    left = np.full(height, width, np.int64)
+    right = np.full(height, -1, np.int64)
+    np.minimum.at(left, rows - top, cols)
+    np.maximum.at(right, rows - top, cols)
+    seen = right >= 0
+    r = np.nonzero(seen)[0] + top
+    offsets = np.arange(1, p.occluder_reach + 1)
+    limit = near - p.occluder_margin
+    for edge, sign in ((left[seen], -1), (right[seen], 1)):
+        c = edge[:, None] + sign * offsets[None, :]
+        inside = (c >= 0) & (c < width)
+        vals = np.where(inside, d[r[:, None], c.clip(0, width - 1)], np.nan)
+        with np.errstate(invalid="ignore"):
+            nearer = np.any(vals < limit, axis=1)
+        if np.count_nonzero(nearer) >= p.occluded_share * len(r):
+            return True
+    return False
 
 
 def _cloud(depth, camera, camera_pose, p):

@@ -10,6 +10,24 @@ import numpy as np
 H = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0]])
 
 
+def measurement_covariance(noise):
+    """2x2 covariance [m^2] of a position measurement: ``noise`` is a standard deviation [m] (the
+    same in every direction) or already a 2x2 covariance."""
+    if np.ndim(noise) == 0:
+        return np.eye(2) * float(noise) ** 2
+    return np.asarray(noise, dtype=float).reshape(2, 2)
+
+
+def along_and_across(direction, std_along, std_across):
+    """2x2 covariance [m^2] of a measurement with standard deviation ``std_along`` [m] along the unit
+    vector ``direction`` (x, y) and ``std_across`` [m] across it (a range that is good and a bearing
+    that is not)."""
+    u = np.asarray(direction, dtype=float)
+    u = u / max(float(np.hypot(*u)), 1e-9)
+    n = np.array([-u[1], u[0]])
+    return std_along**2 * np.outer(u, u) + std_across**2 * np.outer(n, n)
+
+
 class ConstantVelocity:
     def __init__(self, x, y, t, pos_std=0.1, vel_std=1.0, q=1.0):
         self.x = np.array([x, y, 0.0, 0.0])
@@ -39,18 +57,28 @@ class ConstantVelocity:
         self.x, self.P = self.predicted(t)
         self.t = max(self.t, float(t))
 
-    def innovation(self, z, std, t=None):
-        """(residual [2], covariance S [2x2]) of measurement ``z`` with noise ``std`` [m] at ``t``."""
+    def innovation(self, z, noise, t=None):
+        """(residual [2], covariance S [2x2]) of measurement ``z`` at ``t``; ``noise``: its standard
+        deviation [m], the same in every direction, or its 2x2 covariance [m^2]."""
         x, P = self.predicted(self.t if t is None else t)
-        S = P[:2, :2] + np.eye(2) * std * std
+        S = P[:2, :2] + measurement_covariance(noise)
         return np.asarray(z, dtype=float) - x[:2], S
 
-    def update(self, z, std):
-        """Fuse position ``z`` (x, y) [m] measured with standard deviation ``std`` [m] (after predict)."""
-        y, S = self.innovation(z, std)
+    def update(self, z, noise, velocity=True):
+        """Fuse position ``z`` (x, y) [m] measured with ``noise`` (see :meth:`innovation`), after
+        predict. ``velocity`` False: the position only (the velocity rows of the gain zeroed, the
+        covariance by Joseph's form, which holds for any gain): a measurement whose error is
+        biased and growing (a person more and more hidden) must not teach the filter a velocity."""
+        y, S = self.innovation(z, noise)
         K = self.P @ H.T @ np.linalg.inv(S)
+        if velocity:
+            self.x = self.x + K @ y
+            self.P = (np.eye(4) - K @ H) @ self.P
+            return
+        K[2:, :] = 0.0
         self.x = self.x + K @ y
-        self.P = (np.eye(4) - K @ H) @ self.P
+        A = np.eye(4) - K @ H
+        self.P = A @ self.P @ A.T + K @ measurement_covariance(noise) @ K.T
 
     @property
     def position(self):

@@ -8,7 +8,10 @@ table legs and lamp poles are thinner), standing out from what is behind it on b
 bump on a wall is not a leg). Its centre is the mean of its returns moved back along the ray by
 3/8 of its width: the returns lie on the near side of the leg. Legs closer than
 ``max_pair_distance`` pair into a person at their midpoint; a leg with no partner (the other one
-hidden behind it) is a person by itself.
+hidden behind it) is a person by itself. Such a lone leg with something nearer than it by
+``hidden_margin`` within ``max_pair_distance`` of it across the line of sight may have its
+partner hidden behind that (another person crossing in front): :func:`partner_hidden` says so,
+and the tracker trusts its side less (its centre is off the person's, up to a stride).
 
 Points are placed through the laser's 4x4 pose in the output frame, so the upside-down
 mounting (rolled by pi: the scan runs clockwise) needs no special case.
@@ -33,9 +36,11 @@ class LegParams:
     edge_jump: float = 0.10  # [m] a leg stands this much in front of its neighbours on both sides
     max_pair_distance: float = 0.50  # [m] two legs of one person are at most this far apart
     max_range: float = 5.0  # [m] returns beyond are not used (sparse, noisy)
+    hidden_margin: float = 0.3  # [m] a lone leg's partner may be hidden by what is this much nearer beside it
 
     def validate(self):
-        for name in ("cluster_distance", "min_width", "max_width", "edge_jump", "max_pair_distance", "max_range"):
+        for name in ("cluster_distance", "min_width", "max_width", "edge_jump", "max_pair_distance", "max_range",
+                     "hidden_margin"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
         if self.min_points < 2 or self.min_width >= self.max_width or self.max_gap_beams < 0:
@@ -138,6 +143,27 @@ def pair_legs(legs, params, members=False, groups=None):
     who += [(int(a),) for a in np.flatnonzero(~used)]
     people = np.array(people).reshape(-1, 2)
     return (people, who) if members else people
+
+
+def partner_hidden(xy, valid, sensor_xy, legs, params):
+    """For each leg [L, 2] (lone legs: their partner unseen): whether a scan point (``xy``, ``valid``
+    in scan order, as for :func:`find_legs`) lies within ``max_pair_distance`` of it across the
+    line of sight (the bearings that far to either side at its range) and ``hidden_margin`` or
+    more nearer the laser: what may hide its partner."""
+    legs = np.asarray(legs, dtype=float).reshape(-1, 2)
+    out = np.zeros(len(legs), bool)
+    pts = np.asarray(xy, dtype=float)[np.asarray(valid, bool)]
+    if not len(legs) or not len(pts):
+        return out
+    sensor = np.asarray(sensor_xy, dtype=float)
+    rel, leg_rel = pts - sensor, legs - sensor
+    rng, leg_rng = np.hypot(rel[:, 0], rel[:, 1]), np.hypot(leg_rel[:, 0], leg_rel[:, 1])
+    bearing, leg_bearing = np.arctan2(rel[:, 1], rel[:, 0]), np.arctan2(leg_rel[:, 1], leg_rel[:, 0])
+    off = np.abs((bearing[None, :] - leg_bearing[:, None] + np.pi) % (2 * np.pi) - np.pi)  # [L, N]
+    window = np.arctan2(params.max_pair_distance, np.maximum(leg_rng, 1e-6))[:, None]
+    nearer = rng[None, :] <= leg_rng[:, None] - params.hidden_margin
+    out[:] = np.any((off <= window) & nearer, axis=1)
+    return out
 
 
 def detect(ranges, angle_min, angle_increment, range_min, range_max, laser_pose, params):

@@ -24,6 +24,10 @@ ROS Publishers:
         costmaps and anything else that needs where people are, not who.
     ~markers (visualization_msgs/MarkerArray): a cylinder and a label "id (ni id)" per user, an arrow the way
         they face when it is known.
+    ~detections (visualization_msgs/MarkerArray, built only while somebody subscribes): what each reading
+        detected, in ~fixed_frame: a sphere at chest height per Kinect detection (green; orange when the
+        person is partly hidden, grey on the map's walls) and a flat disc at the shins per leg pair of
+        the laser (blue; orange or grey alike), each living 0.2 s: why a track went where it went.
     /tf: user_<user_id> per user, child of ~fixed_frame (with ~publish_tf).
     /diagnostics: input rates, processing time, tracks, why detections were dropped.
 
@@ -61,6 +65,7 @@ from user_tracker_ni.params import PARAMS, split
 from user_tracker_ni.pipeline import Pipeline
 from user_tracker_ni.srv import Start, StartResponse, Stop, StopResponse
 from user_tracker_ni.static_map import StaticMap
+from user_tracker_ni.tracker import KINECT
 
 LOG = "user_tracker_ni: "
 RECENT = 0.5  # [s] a sensor "saw" a user when it did within this long (the sensors field)
@@ -97,6 +102,7 @@ class UserTrackerNode:
         self.pub = rospy.Publisher("tracked_users", TrackedUsers, queue_size=5)
         self.people_pub = rospy.Publisher("tracked_people", TrackedUsers, queue_size=5)
         self.markers = rospy.Publisher("~markers", MarkerArray, queue_size=2)
+        self.detections = rospy.Publisher("~detections", MarkerArray, queue_size=5)
         self.diag = Diagnostics("user_tracker_ni")
         self.depth_rate = self.diag.frequency("Depth frames", 5.0, 60.0)
         self.scan_rate = self.diag.frequency("Scans", 5.0, 40.0)
@@ -223,6 +229,7 @@ class UserTrackerNode:
             return
         if detections is None:
             return
+        self._publish_detections(detections, msg.header.stamp)
         self.last_depth = time.monotonic()
         self.times.append(time.perf_counter() - started)
         self.stats["depth frames"] += 1
@@ -259,12 +266,14 @@ class UserTrackerNode:
         fixed_in_map = self._fixed_in_map(msg.header.stamp)
         with self.lock:
             try:  # while stopped, the scan still shows the floor the laser sees free
-                self.pipeline.on_scan(msg.header.stamp.to_sec(), msg.ranges, msg.angle_min, msg.angle_increment,
-                                      msg.range_min, msg.range_max, base_pose @ laser_pose, fixed_in_map,
-                                      track=self.tracking)
+                detections = self.pipeline.on_scan(msg.header.stamp.to_sec(), msg.ranges, msg.angle_min,
+                                                   msg.angle_increment, msg.range_min, msg.range_max,
+                                                   base_pose @ laser_pose, fixed_in_map, track=self.tracking)
             except ValueError as exc:
                 self._warn("scan", "scan skipped: %s", exc)
                 return
+        if self.tracking:
+            self._publish_detections(detections, msg.header.stamp)
         self.stats["scans"] += 1
         if not self.tracking:
             return
@@ -340,6 +349,25 @@ class UserTrackerNode:
             out.markers.append(arrow)
         if out.markers:
             self.markers.publish(out)
+
+    def _publish_detections(self, detections, stamp):
+        if not detections or not self.detections.get_num_connections():
+            return
+        out = MarkerArray()
+        for k, det in enumerate(detections):
+            kinect = det.source == KINECT
+            m = Marker(type=Marker.SPHERE if kinect else Marker.CYLINDER, action=Marker.ADD,
+                       ns=f"{det.source}_detections", id=k)
+            m.header.frame_id, m.header.stamp = self.fixed, stamp
+            m.pose.position = Point(det.x, det.y, 1.2 if kinect else 0.15)
+            m.pose.orientation.w = 1.0
+            m.scale = Vector3(0.15, 0.15, 0.15) if kinect else Vector3(0.25, 0.25, 0.02)
+            colour = ((0.5, 0.5, 0.5) if det.on_structure else (1.0, 0.55, 0.0) if det.across_std is not None
+                      else (0.1, 0.8, 0.2) if kinect else (0.2, 0.4, 1.0))
+            m.color.r, m.color.g, m.color.b, m.color.a = (*colour, 0.9)
+            m.lifetime = rospy.Duration(0.2)
+            out.markers.append(m)
+        self.detections.publish(out)
 
     def _clear_markers(self):
         self.markers.publish(MarkerArray(markers=[Marker(action=Marker.DELETEALL)]))

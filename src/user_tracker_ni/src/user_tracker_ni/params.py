@@ -89,6 +89,14 @@ KINECT = ParamTable(
           "how far behind the nearest of them along the line of sight (not the wall behind)", unit="m", gt=0),
     Param("kinect/close_gate", float, DepthParams.close_gate,
           "largest colour difference (Bhattacharyya) of what is seen close up and the person", gt=0, le=1),
+    Param("kinect/occluder_margin", float, DepthParams.occluder_margin,
+          "something this much nearer than a person just beside them in the image ...", unit="m", gt=0),
+    Param("kinect/occluder_reach", int, DepthParams.occluder_reach,
+          "... within this many pixels of their outline (decimated image; the Kinect leaves gaps at edges) ...",
+          unit="px", ge=1),
+    Param("kinect/occluded_share", float, DepthParams.occluded_share,
+          "... along at least this share of their rows on one side hides part of them: their detection is "
+          "trusted less (its centroid is the side in view)", gt=0, le=1),
 )
 
 LASER = ParamTable(
@@ -106,6 +114,9 @@ LASER = ParamTable(
     Param("laser/max_pair_distance", float, LegParams.max_pair_distance, "two legs of one person are nearer",
           unit="m", gt=0),
     Param("laser/max_range", float, LegParams.max_range, "returns beyond are not used", unit="m", gt=0),
+    Param("laser/hidden_margin", float, LegParams.hidden_margin,
+          "a lone leg with something this much nearer beside it (within max_pair_distance across the line of "
+          "sight) may have its partner hidden: the tracker trusts its side less", unit="m", gt=0),
 )
 
 TRACKER = ParamTable(

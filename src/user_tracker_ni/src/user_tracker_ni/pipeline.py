@@ -26,6 +26,14 @@ from user_tracker_ni import depth_people, free_space, laser_legs, reid
 from user_tracker_ni.tracker import KINECT, LASER, Detection, Tracker
 
 KINECT_STD, LASER_STD = 0.08, 0.05  # [m] position noise of a detection of each sensor
+# [m] across the line of sight, that of a detection of a person partly hidden behind somebody or
+# something nearer (depth_people's ``occluded``; a lone leg whose partner may be hidden,
+# laser_legs.partner_hidden): its centre is that of the side in view, up to half a body or a
+# stride off theirs, while its range is good; across it the filter's prediction leads, and it
+# teaches the filter no velocity (two people crossing: the one behind had their track dragged to
+# the side in view, and their velocity with it, then coasting 0.5 m off while the one in front
+# hid them)
+OCCLUDED_ACROSS_STD = 1.0
 
 
 @dataclass
@@ -73,8 +81,11 @@ class Pipeline:
         xy = np.array([base[:2, :2] @ (p.x, p.y) + base[:2, 3] for p in people]).reshape(-1, 2)
         on = self._on_structure(xy, fixed_in_map)
         yaw = math.atan2(base[1, 0], base[0, 0])
+        camera_xy = (base @ np.asarray(camera_in_base, float)[:, 3])[:2]
         dets = [Detection(float(x), float(y), KINECT, KINECT_STD, p.signature, on_structure=bool(o),
-                          facing=None if p.facing is None else angles.wrap(p.facing + yaw))
+                          facing=None if p.facing is None else angles.wrap(p.facing + yaw),
+                          across_std=OCCLUDED_ACROSS_STD if p.occluded else None,
+                          sight=(float(x - camera_xy[0]), float(y - camera_xy[1])) if p.occluded else None)
                 for (x, y), p, o in zip(xy, people, on, strict=True)]
         self.tracker.update(t, dets, KINECT)
         self.counts[KINECT] += len(dets)
@@ -146,8 +157,15 @@ class Pipeline:
         # door frame's end, with no map) are not one person's
         people, members = laser_legs.pair_legs(legs, self.p.legs, members=True, groups=leg_free)
         free = [all(leg_free[k] for k in m) for m in members]
-        dets = [Detection(float(x), float(y), LASER, LASER_STD, free=bool(f))
-                for (x, y), f in zip(people, free, strict=True)]
+        lone = np.array([m[0] for m in members if len(m) == 1], dtype=int)
+        hidden = dict(zip(lone.tolist(), laser_legs.partner_hidden(xy, valid, sensor, legs[lone], self.p.legs),
+                          strict=True))
+        dets = []
+        for (x, y), f, m in zip(people, free, members, strict=True):
+            partly = len(m) == 1 and hidden[m[0]]  # a lone leg whose partner something nearer may hide
+            dets.append(Detection(float(x), float(y), LASER, LASER_STD, free=bool(f),
+                                  across_std=OCCLUDED_ACROSS_STD if partly else None,
+                                  sight=(float(x - sensor[0]), float(y - sensor[1])) if partly else None))
         self.tracker.update(t, dets, LASER)
         self.counts[LASER] += len(dets)
         ends, hit = laser_legs.beam_ends(ranges, angle_min, angle_increment, range_min, range_max, pose,

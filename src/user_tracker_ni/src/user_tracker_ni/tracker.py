@@ -71,7 +71,7 @@ import numpy as np
 
 from user_tracker_ni import reid
 from user_tracker_ni.association import assign, distance_matrix
-from user_tracker_ni.kalman import ConstantVelocity
+from user_tracker_ni.kalman import ConstantVelocity, along_and_across
 
 KINECT, LASER = "kinect", "laser"
 
@@ -88,6 +88,22 @@ class Detection:
     free: bool | None = None  # laser only: in floor the laser saw free lately (free_space.py)
     on_structure: bool = False  # on thin static structure of the robot's map (static_map.py)
     facing: float | None = None  # [rad] which way the person faces, in the fixed frame (Kinect, seated people)
+    # a person partly hidden (Kinect): the range is good, the side is not. Standard deviation [m] across
+    # the line of sight, and that line's direction (x, y) from the camera in the fixed frame; std along it
+    across_std: float | None = None
+    sight: tuple | None = None
+
+    @property
+    def noise(self):
+        """The measurement noise for the filter: std [m], or a 2x2 covariance [m^2] (across_std)."""
+        if self.across_std is None or self.sight is None:
+            return self.std
+        return along_and_across(self.sight, self.std, self.across_std)
+
+    @property
+    def tells_velocity(self):
+        """False for a partly hidden person: their detection moves the track's position, not its velocity."""
+        return self.across_std is None
 
 
 @dataclass(frozen=True)
@@ -257,7 +273,7 @@ class Tracker:
         if not (np.isfinite(det.x) and np.isfinite(det.y)) or det.on_structure:
             return
         track.filter.predict(t)
-        track.filter.update((det.x, det.y), det.std)
+        track.filter.update((det.x, det.y), det.noise, det.tells_velocity)
         track.last_update = t
         track.updated = (track.position, track.velocity)
         track.sources.add(det.source)
@@ -330,7 +346,7 @@ class Tracker:
         return cost
 
     def _start(self, det, t, source):
-        kf = ConstantVelocity(det.x, det.y, t, pos_std=det.std, q=self.params.process_noise)
+        kf = ConstantVelocity(det.x, det.y, t, pos_std=max(det.std, det.across_std or 0.0), q=self.params.process_noise)
         track = Track(kf, source, t, t, (det.x, det.y), kinect_frames=int(source == KINECT),
                       laser_frames=int(source == LASER))
         self._record(track, det, t, source)
@@ -338,7 +354,7 @@ class Tracker:
         self._maybe_confirm(track, t)
 
     def _apply(self, track, det, t, source):
-        track.filter.update((det.x, det.y), det.std)
+        track.filter.update((det.x, det.y), det.noise, det.tells_velocity)
         self._record(track, det, t, source)
         self._maybe_confirm(track, t)
 
