@@ -36,6 +36,14 @@ KINECT_STD, LASER_STD = 0.08, 0.05  # [m] position noise of a detection of each 
 OCCLUDED_ACROSS_STD = 1.0
 
 
+def _partly_hidden(hidden, x, y, sensor_xy):
+    """Detection fields of a person seen at (x, y) [m] from ``sensor_xy``: across_std and the line of
+    sight when ``hidden``, nothing otherwise."""
+    if not hidden:
+        return {}
+    return {"across_std": OCCLUDED_ACROSS_STD, "sight": (float(x - sensor_xy[0]), float(y - sensor_xy[1]))}
+
+
 @dataclass
 class PipelineParams:
     depth: depth_people.DepthParams = field(default_factory=depth_people.DepthParams)
@@ -84,8 +92,7 @@ class Pipeline:
         camera_xy = (base @ np.asarray(camera_in_base, float)[:, 3])[:2]
         dets = [Detection(float(x), float(y), KINECT, KINECT_STD, p.signature, on_structure=bool(o),
                           facing=None if p.facing is None else angles.wrap(p.facing + yaw),
-                          across_std=OCCLUDED_ACROSS_STD if p.occluded else None,
-                          sight=(float(x - camera_xy[0]), float(y - camera_xy[1])) if p.occluded else None)
+                          **_partly_hidden(p.occluded, x, y, camera_xy))
                 for (x, y), p, o in zip(xy, people, on, strict=True)]
         self.tracker.update(t, dets, KINECT)
         self.counts[KINECT] += len(dets)
@@ -160,12 +167,10 @@ class Pipeline:
         lone = np.array([m[0] for m in members if len(m) == 1], dtype=int)
         hidden = dict(zip(lone.tolist(), laser_legs.partner_hidden(xy, valid, sensor, legs[lone], self.p.legs),
                           strict=True))
-        dets = []
-        for (x, y), f, m in zip(people, free, members, strict=True):
-            partly = len(m) == 1 and hidden[m[0]]  # a lone leg whose partner something nearer may hide
-            dets.append(Detection(float(x), float(y), LASER, LASER_STD, free=bool(f),
-                                  across_std=OCCLUDED_ACROSS_STD if partly else None,
-                                  sight=(float(x - sensor[0]), float(y - sensor[1])) if partly else None))
+        # a lone leg whose partner something nearer may hide
+        dets = [Detection(float(x), float(y), LASER, LASER_STD, free=bool(f),
+                          **_partly_hidden(len(m) == 1 and hidden[m[0]], x, y, sensor))
+                for (x, y), f, m in zip(people, free, members, strict=True)]
         self.tracker.update(t, dets, LASER)
         self.counts[LASER] += len(dets)
         ends, hit = laser_legs.beam_ends(ranges, angle_min, angle_increment, range_min, range_max, pose,

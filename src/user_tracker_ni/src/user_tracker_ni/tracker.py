@@ -88,8 +88,9 @@ class Detection:
     free: bool | None = None  # laser only: in floor the laser saw free lately (free_space.py)
     on_structure: bool = False  # on thin static structure of the robot's map (static_map.py)
     facing: float | None = None  # [rad] which way the person faces, in the fixed frame (Kinect, seated people)
-    # a person partly hidden (Kinect): the range is good, the side is not. Standard deviation [m] across
-    # the line of sight, and that line's direction (x, y) from the camera in the fixed frame; std along it
+    # a person partly hidden (the Kinect's visible side, the laser's lone leg): the range is good, the side
+    # is not. Standard deviation [m] across the line of sight, and that line's direction (x, y) from the
+    # sensor in the fixed frame; std along it
     across_std: float | None = None
     sight: tuple | None = None
 
