@@ -9,7 +9,7 @@ import yaml
 from move_base.costmap_2d import LETHAL_OBSTACLE, Costmap2D
 from move_base.footprint import pad_footprint, parse_footprint, transform_footprint
 from move_base.local_planner import NO_VALID_TRAJECTORY, LocalPlanner, clip_plan, goal_turn_times, prune_count
-from move_base.trajectory_planner import PlannerParams
+from move_base.trajectory_planner import PlannerParams, poses_are_free
 from scipy import ndimage
 
 from florence_common import angles
@@ -616,3 +616,123 @@ def test_a_turn_whose_braking_overshoot_would_collide_drives_on_to_the_goal_posi
     assert lp.is_goal_reached()
     assert math.hypot(poses[-1, 0] - 2.6, poses[-1, 1] - 2.5) <= 0.25
     assert max(transform_footprint(FOOTPRINT, *p)[:, 0].max() for p in poses) < 3.0
+
+
+# --- turn_to_plan_angle ------------------------------------------------------------------------
+
+TURNING_TO_PLAN = "turning on the spot toward the plan"
+
+
+def _doorway():
+    """A 4 x 4 m costmap from (0.5, 4.0) [m] with a 0.1 m wall along y = 5.5 m and a 0.9 m door in it
+    (x 2.0..2.9), as between the apartment's corridor and living room; and a plan from the robot's
+    place in the door, 0.1 m on the living room's side, north into the corridor, then west."""
+    res = 0.05
+    lethal = np.zeros((80, 80), bool)
+    lethal[29:31, :] = True  # y 5.45..5.55
+    lethal[29:31, 30:48] = False  # x 2.0..2.9
+    cm = Costmap2D(80, 80, res, 0.5, 4.0)
+    cm.costs[:] = inflated(lethal, res)
+    plan = np.vstack([line_plan(2.46, 5.40, 2.45, 6.15), line_plan(2.45, 6.15, 0.6, 6.15, yaw_end=math.pi)[1:]])
+    return cm, plan
+
+
+def _leave_the_doorway(lp, cm, plan, pose, seconds=12.0):
+    """Kinematic loop (as _drive, 1 rad/s^2 turns as the launch's acc_lim_th) until the robot's centre is
+    0.5 m into the corridor (y > 6.0 m): (time [s] or None, poses, commands, reasons)."""
+    dt = lp.params.sim_period
+    x, y, yaw = pose
+    v = np.zeros(3)
+    poses, cmds, reasons = [pose], [], []
+    lp.set_plan(plan)
+    for k in range(int(seconds / dt)):
+        _, cmd, reason = lp.compute_velocity(cm, (x, y, yaw), tuple(v), plan)
+        cmds.append(cmd)
+        reasons.append(reason)
+        v = v + np.clip(np.asarray(cmd) - v, -np.array([0.5, 0.5, 1.0]) * dt, np.array([0.5, 0.5, 1.0]) * dt)
+        c, s = math.cos(yaw), math.sin(yaw)
+        x += (v[0] * c - v[1] * s) * dt
+        y += (v[0] * s + v[1] * c) * dt
+        yaw = angles.wrap(yaw + v[2] * dt)
+        poses.append((x, y, yaw))
+        if y > 6.0:
+            return (k + 1) * dt, np.array(poses), np.array(cmds), reasons
+    return None, np.array(poses), np.array(cmds), reasons
+
+
+def test_facing_away_from_the_plan_in_a_doorway_turns_on_the_spot_one_way_then_drives_out():
+    """move_base gave way into the living room's door, the robot's back to the corridor; when the way was
+    free its plan led north, behind it. The rollouts arced to and fro (their oscillation flags reset by
+    each replan) and the collision monitor stopped the arcs near the jambs: in florence_sim the robot
+    stayed in the door until the recoveries turned it. With turn_to_plan_angle it turns on the spot, one
+    way, without moving off its place, then drives out."""
+    cm, plan = _doorway()
+    start = (2.46, 5.40, math.radians(-100.0))
+    t_on, poses, cmds, reasons = _leave_the_doorway(planner(acc_lim_th=1.0, turn_to_plan_angle=1.5), cm, plan, start)
+    t_off, _, _, _ = _leave_the_doorway(planner(acc_lim_th=1.0), cm, plan, start)
+    assert t_on is not None and t_on <= 5.0, t_on
+    assert t_off is None or t_on < t_off, (t_on, t_off)
+    turning = np.array([r == TURNING_TO_PLAN for r in reasons])
+    assert turning[0] and turning.sum() >= 5
+    assert np.all(cmds[turning, 0] == 0.0)  # at rest: no translation while turning
+    assert len(set(np.sign(cmds[turning, 2]))) == 1  # one way round
+    assert np.hypot(*(poses[: turning.sum() + 1, :2] - poses[0, :2]).T).max() < 0.01
+    # handed to the rollouts within a third of the angle of the plan's heading (north)
+    first_after = int(np.argmin(turning))
+    assert abs(angles.diff(math.pi / 2, poses[first_after, 2])) <= 0.5 + 0.25
+    assert all(poses_are_free(cm, poses, FOOTPRINT) for _ in [0])
+
+
+def test_turn_to_plan_takes_the_longer_way_when_the_shorter_collides_and_keeps_it():
+    """The plan leads 150 degrees to the left; something stands 0.26 m to the left, where the front
+    corner would sweep it turning left: the robot turns 210 degrees right. It keeps that way when a
+    replan to the same goal comes after the thing is gone and the left turn has become the shorter
+    and free one; a plan to a new goal starts afresh."""
+    res = 0.005
+    cm = Costmap2D(400, 400, res)
+    for b in np.radians(np.arange(80.0, 101.0)):
+        cm.costs[int((1.0 + 0.2575 * math.sin(b)) / res), int((1.0 + 0.2575 * math.cos(b)) / res)] = LETHAL_OBSTACLE
+    heading = math.radians(150.0)
+    plan = line_plan(1.0, 1.0, 1.0 + 0.8 * math.cos(heading), 1.0 + 0.8 * math.sin(heading))
+    lp = planner(acc_lim_th=1.0, turn_to_plan_angle=1.5)
+    lp.set_plan(plan)
+    assert not lp._sweep_is_free(cm, 1.0, 1.0, 0.0, heading)
+    ok, cmd, reason = lp.compute_velocity(cm, (1.0, 1.0, 0.0), (0.0, 0.0, 0.0), plan)
+    assert ok and reason == TURNING_TO_PLAN and cmd[0] == 0.0 and cmd[2] < 0.0
+    # 20 degrees round, the thing gone: left would be 170 degrees, right 190
+    cm.costs[:] = 0
+    pose, turning = (1.0, 1.0, math.radians(-20.0)), (0.0, 0.0, -1.0)
+    lp.set_plan(plan)
+    ok, cmd, reason = lp.compute_velocity(cm, pose, turning, plan)
+    assert ok and reason == TURNING_TO_PLAN and cmd[2] < 0.0
+    lp.set_plan(plan[:-1])
+    ok, cmd, reason = lp.compute_velocity(cm, pose, turning, plan[:-1])
+    assert ok and reason == TURNING_TO_PLAN and cmd[2] > 0.0
+
+
+def test_turn_to_plan_turns_once_per_place():
+    """Once a turn toward the plan has ended, the next waits until the robot has moved 0.25 m: where
+    the rollouts steer off the plan's next poses (a corner cut), the two turned the robot to and fro."""
+    cm = Costmap2D(100, 100, 0.05)
+    plan = line_plan(2.5, 2.5, 2.5, 4.0)  # north
+    lp = planner(acc_lim_th=1.0, turn_to_plan_angle=1.5)
+    lp.set_plan(plan)
+    ok, cmd, reason = lp.compute_velocity(cm, (2.5, 2.5, math.pi), (0.0, 0.0, 0.0), plan)
+    assert ok and reason == TURNING_TO_PLAN and cmd[2] < 0.0
+    ok, cmd, reason = lp.compute_velocity(cm, (2.5, 2.5, math.pi / 2 + 0.3), (0.0, 0.0, -1.0), plan)
+    assert ok and reason != TURNING_TO_PLAN and cmd[0] > 0.0  # within a third of the angle: it drives
+    _, _, reason = lp.compute_velocity(cm, (2.5, 2.6, -0.2), (0.0, 0.0, 0.0), plan)
+    assert reason != TURNING_TO_PLAN  # 0.1 m on: no second turn
+    ok, cmd, reason = lp.compute_velocity(cm, (2.5, 2.8, -0.2), (0.0, 0.0, 0.0), plan)
+    assert ok and reason == TURNING_TO_PLAN and cmd[2] > 0.0  # 0.3 m on
+
+
+@pytest.mark.parametrize("heading_deg", [0.0, 60.0, -80.0])
+def test_turn_to_plan_leaves_a_plan_ahead_to_the_rollouts(heading_deg):
+    cm = Costmap2D(100, 100, 0.05)
+    h = math.radians(heading_deg)
+    plan = line_plan(2.5, 2.5, 2.5 + 1.5 * math.cos(h), 2.5 + 1.5 * math.sin(h))
+    lp = planner(acc_lim_th=1.0, turn_to_plan_angle=1.5)
+    lp.set_plan(plan)
+    ok, _, reason = lp.compute_velocity(cm, (2.5, 2.5, 0.0), (0.0, 0.0, 0.0), plan)
+    assert ok and reason != TURNING_TO_PLAN

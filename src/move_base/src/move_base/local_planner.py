@@ -27,6 +27,10 @@ NO_VALID_TRAJECTORY_PEOPLE = "no valid trajectory: the others would come nearer 
 # [m] within this of the goal position a turn to the goal yaw that collides is a failure; farther
 # (at the edge of xy_goal_tolerance) the robot drives on toward the goal position first
 _AT_GOAL = 0.05
+# turn_to_plan_angle: the plan's direction is toward its first pose at least this far from the robot [m]
+TURN_TO_PLAN_LOOKAHEAD = 0.4
+# turn_to_plan_angle: after such a turn, the next only once the robot has moved this far [m]
+TURN_TO_PLAN_AGAIN = 0.25
 # [m] turn_before_tolerance starts only when the simulated stop is this far inside xy_goal_tolerance
 _EARLY_MARGIN = 0.05
 # fractions of acc_lim_x that turn_before_tolerance may brake at: braking gently from farther out
@@ -157,6 +161,8 @@ class LocalPlanner:
         self._turning_early = False  # turn_before_tolerance: braking and turning outside the tolerance
         self._reached_goal = False
         self._goal = None  # the last pose of the plan set last
+        self._turn_to_plan = 0.0  # turn_to_plan_angle: the way of the turn on the spot under way (+1, -1; 0: none)
+        self._turned_at = None  # turn_to_plan_angle: where the last such turn ended (x, y) [m]
         self._last_cmd = _ZERO  # the command of the last cycle
         self.pose_age = 0.0  # [s] how old the robot pose of the cycle is (set by the node; coast_to_goal_yaw)
         # Florence: with a person in the way (the forward motion that would win is refused for
@@ -188,6 +194,8 @@ class LocalPlanner:
         self.planner.reset_oscillation_flags()
         self.planner.escaping = False
         if not same_goal:
+            self._turn_to_plan = 0.0
+            self._turned_at = None
             self._xy_tolerance_latch = False
             self._rotating_to_goal = False
             self._turning_early = False
@@ -244,6 +252,7 @@ class LocalPlanner:
         goal_x, goal_y, goal_th = window[-1]
         if self._xy_tolerance_latch or math.hypot(goal_x - x, goal_y - y) <= p.xy_goal_tolerance:
             self._turning_early = False
+            self._turn_to_plan = 0.0
             if p.latch_xy_goal_tolerance:
                 self._xy_tolerance_latch = True
             angle = angles.diff(goal_th, yaw)
@@ -272,6 +281,9 @@ class LocalPlanner:
             self._xy_tolerance_latch = False
 
         else:
+            cmd = self._turn_toward_plan(costmap, x, y, yaw, vx, vy, vth, window)
+            if cmd is not None:
+                return True, cmd, "turning on the spot toward the plan"
             if holds_goal and p.turn_before_tolerance and p.rotate_while_braking:
                 cmd = self._turn_before_tolerance(costmap, x, y, yaw, vx, vy, vth, window[-1])
                 if cmd is not None:
@@ -320,10 +332,76 @@ class LocalPlanner:
         ``yaw`` to ``goal_th`` [rad] (the shorter way) and ``beyond`` [rad] past it, checked every
         0.05 rad."""
         diff = angles.diff(goal_th, yaw)
-        diff += math.copysign(beyond, diff)
-        steps = max(1, math.ceil(abs(diff) / 0.05))
-        yaws = yaw + diff * np.arange(steps + 1) / steps
+        return self._sweep_is_free(costmap, x, y, yaw, diff + math.copysign(beyond, diff))
+
+    def _sweep_is_free(self, costmap, x, y, yaw, sweep):
+        """Whether the footprint stays clear of lethal cells (and people) over a turn on the spot of
+        ``sweep`` [rad] (signed, any size) from ``yaw``, checked every 0.05 rad."""
+        steps = max(1, math.ceil(abs(sweep) / 0.05))
+        yaws = yaw + sweep * np.arange(steps + 1) / steps
         return self._path_is_free(costmap, np.column_stack([np.full_like(yaws, x), np.full_like(yaws, y), yaws]))
+
+    def _turn_toward_plan(self, costmap, x, y, yaw, vx, vy, vth, window):
+        """``turn_to_plan_angle``: the command (vx, vy, vth) of a turn on the spot toward the plan
+        (braking first if the robot is moving), or None: the robot faces the plan (within
+        turn_to_plan_angle, or a third of it once turning), no turn is free either way, or the
+        robot has not moved TURN_TO_PLAN_AGAIN since the last such turn (the rollouts decide).
+
+        The turn keeps its way until it ends: the shorter one, or the longer one when only that is
+        free. (Replanning once a second resets the rollouts' oscillation flags, and a robot in a
+        doorway facing away from its plan swung to and fro between arcs the collision monitor
+        stopped.) One turn per place: where the rollouts steer for the local goal off the plan's
+        next poses (a corner cut), the two turned the robot back and forth."""
+        p = self.params
+        if p.turn_to_plan_angle <= 0.0 or p.holonomic_robot:
+            return None
+        if (not self._turn_to_plan and self._turned_at is not None
+                and math.hypot(x - self._turned_at[0], y - self._turned_at[1]) < TURN_TO_PLAN_AGAIN):
+            return None
+        d = np.hypot(window[:, 0] - x, window[:, 1] - y)
+        nearest = int(np.argmin(d))
+        ahead = nearest + np.flatnonzero(d[nearest:] >= TURN_TO_PLAN_LOOKAHEAD)
+        tx, ty = window[ahead[0], :2] if len(ahead) else window[-1, :2]
+        err = angles.diff(math.atan2(ty - y, tx - x), yaw)
+        limit = p.turn_to_plan_angle / 3.0 if self._turn_to_plan else p.turn_to_plan_angle
+        if math.hypot(tx - x, ty - y) < _AT_GOAL or abs(err) <= limit:
+            return self._end_turn_to_plan(x, y)
+        ways = (self._turn_to_plan,) if self._turn_to_plan else (_sign(err), -_sign(err))
+        for way in ways:
+            sweep = err if _sign(err) == way else err + way * 2.0 * math.pi  # signed, ``way`` round
+            cmd = self._turn_on_the_spot(costmap, x, y, yaw, vx, vth, sweep)
+            if cmd is not None:
+                self._turn_to_plan = way
+                return cmd
+        return self._end_turn_to_plan(x, y)
+
+    def _end_turn_to_plan(self, x, y):
+        """No turn toward the plan (None); one that was under way ended here."""
+        if self._turn_to_plan:
+            self._turn_to_plan, self._turned_at = 0.0, (x, y)
+
+    def _turn_on_the_spot(self, costmap, x, y, yaw, vx, vth, sweep):
+        """One control period of a turn through ``sweep`` [rad] (signed): the translation braked at
+        acc_lim_x, the rotation toward min(max_vel_theta, sqrt(2 acc_lim_theta |left|)) within
+        acc_lim_theta, at least min_in_place_vel_theta once the robot has stopped; None when the
+        braking path or the rest of the turn collides."""
+        p = self.params
+        dt = p.sim_period
+        way = _sign(sweep)
+        vx, vth = self._ramp_from(vx, 0, p.acc_lim_x), self._ramp_from(vth, 2, p.acc_lim_theta)
+        want = way * min(p.max_vel_theta if way > 0 else -p.min_vel_theta,
+                         math.sqrt(2.0 * p.acc_lim_theta * abs(sweep)))
+        cvth = min(max(want, vth - p.acc_lim_theta * dt), vth + p.acc_lim_theta * dt)
+        cvx = _sign(vx) * max(0.0, abs(vx) - p.acc_lim_x * dt)
+        if cvx == 0.0 and cvth * way < p.min_in_place_vel_theta:
+            cvth = way * p.min_in_place_vel_theta  # the base's dead band: as rotateToGoal
+        points = self._braking_path(x, y, yaw, cvx, cvth, hold=0.0)
+        if not self._path_is_free(costmap, points):
+            return None
+        sx, sy, syaw = points[-1]
+        if not self._sweep_is_free(costmap, sx, sy, syaw, sweep - angles.diff(syaw, yaw)):
+            return None
+        return (cvx, 0.0, cvth)
 
     def _ramp_from(self, measured, index, acc):
         """The velocity an acceleration-limited step starts from: the last command's component

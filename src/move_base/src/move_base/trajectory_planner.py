@@ -116,6 +116,11 @@ PARAMS = ParamTable(
           "on past the goal yaw)"),
     Param("command_lag", float, 0.0, "Florence, coast_to_goal_yaw: time from the controller's command to the base "
           "acting on it (the filters between, the base's own cycle)", unit="s", ge=0.0),
+    Param("turn_to_plan_angle", float, 0.0, "Florence: when the plan leads off more than this from the heading "
+          "(toward its first pose 0.4 m away past the nearest), brake and turn on the spot toward it, one way "
+          "until within a third of it (the shorter way unless only the longer is free), then drive; the next such "
+          "turn once the robot has moved 0.25 m (0: off, ROS: the rollouts arc round, which in a doorway swung the "
+          "robot to and fro)", unit="rad", ge=0.0),
     Param("min_person_distance", float, 0.0, "Florence: no trajectory brings the robot's centre nearer than this "
           "to a tracked person (walking on at their velocity), or nearer than this less 0.1 m to a leg-height "
           "return the maps do not explain, than braking would; braking, turning on the spot and moving away "
