@@ -580,3 +580,41 @@ def test_progress_between_waits_starts_the_wait_afresh():
         if core.state == CONTROLLING:
             x += 0.3 * 0.2
     assert states.count("WAITING") > 100 and x > 3.0
+
+
+@pytest.mark.parametrize("blind", ["sensors", "pose"])
+def test_a_moment_without_pose_after_a_long_wait_is_no_transform_timeout(blind):
+    """20 s of waiting for a person (controller_patience 15 s), then one cycle where tf cannot place
+    the robot (or the sensors lag): the robot stands that cycle and waits on. The goal used to abort
+    at once, "no robot pose for longer than controller_patience (15.0 s)", after 0.6 s without one
+    (florence_sim, giving way to Bob on a loaded machine). Blind for longer than the patience, it
+    still aborts."""
+    fresh = {"ok": True}
+    people = FakePeople(lambda now: now >= 1.0)
+    core = MoveBaseCore(core_params(planner_patience=1.0, person_wait_timeout=60.0, controller_patience=15.0),
+                        WaitingPlanner(people), GivingWayController(people, reached_after=40), [], people=people,
+                        sensors_current=lambda: (fresh["ok"], "scan (/filtered_scan) last seen 0.6 s ago"))
+    core.set_goal((5.0, 0.0, 0.0), 0.0, POSE)
+    _, _, _, results = run_people(core, people, n=100)  # 20 s
+    assert results[-1][1] == "WAITING"
+
+    def cycle(now):
+        people.now = now
+        if blind == "sensors":
+            fresh["ok"] = False
+            return core.cycle(now, POSE)
+        return core.cycle(now, None)
+
+    r = cycle(20.0)
+    assert r.outcome is None and r.cmd == (0.0, 0.0, 0.0), r.text
+    fresh["ok"] = True
+    people.now = 20.2
+    r = core.cycle(20.2, POSE)
+    assert r.outcome is None and core.state == "WAITING"
+    for i in range(80):  # 16 s blind
+        r = cycle(20.4 + i * 0.2)
+        if r.outcome:
+            break
+    assert r.outcome == "aborted", r.text
+    assert r.text.startswith("Transform timeout" if blind == "pose" else "Sensor data is out of date")
+    assert 20.2 + 15.0 - 0.01 <= 20.4 + i * 0.2 <= 20.2 + 15.0 + 0.4  # patience from the last sighting

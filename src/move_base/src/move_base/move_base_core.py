@@ -117,6 +117,9 @@ class _GoalState:
     recovery: object = None
     last_valid_plan: float = 0.0
     last_valid_control: float = 0.0
+    # [s] the last WAITING cycle with a pose and current sensors: standing for people counts as
+    # control for controller_patience's transform and sensor checks
+    last_seen_waiting: float = 0.0
     last_oscillation_reset: float = 0.0
     last_cycle: float | None = None  # [s] the previous cycle's time
     oscillation_pose: tuple = (0.0, 0.0)
@@ -202,7 +205,7 @@ class MoveBaseCore:
         if pose is None:
             # tf could not place the robot: stop; the goal ends when controller_patience runs out
             g.reasons[CONTROLLING_R] = "transform timeout: no pose of the robot in the global frame"
-            if now - g.last_valid_control > p.controller_patience:
+            if now - max(g.last_valid_control, g.last_seen_waiting) > p.controller_patience:
                 return self._abort(f"Transform timeout: no robot pose for longer than controller_patience "
                                    f"({p.controller_patience:.1f} s)")
             return CycleResult(cmd=ZERO, text=g.reasons[CONTROLLING_R])
@@ -219,13 +222,14 @@ class MoveBaseCore:
         if not ok and g.state != CLEARING:
             # ROS stops and waits for fresh data; the goal ends when controller_patience runs out.
             g.reasons[CONTROLLING_R] = f"sensor data is out of date: {why}"
-            if now - g.last_valid_control > p.controller_patience:
+            if now - max(g.last_valid_control, g.last_seen_waiting) > p.controller_patience:
                 return self._abort(f"Sensor data is out of date for longer than controller_patience "
                                    f"({p.controller_patience:.1f} s): {why}")
             return CycleResult(cmd=ZERO, text=g.reasons[CONTROLLING_R])
 
         self._progress(pose)
         if g.state == WAITING:
+            g.last_seen_waiting = now
             g.last_oscillation_reset = now  # standing for people is not oscillating
             g.oscillation_pose = (pose[0], pose[1])
             return self._wait(now, pose)
