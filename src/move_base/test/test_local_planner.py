@@ -302,13 +302,18 @@ def _drive(lp, cm, start, plan, seconds, acc=(0.5, 0.5, 3.0)):
         assert ok, reason
         if lp.is_goal_reached():
             break
-        v = v + np.clip(np.asarray(cmd) - v, -np.asarray(acc) * dt, np.asarray(acc) * dt)
-        c, s = math.cos(yaw), math.sin(yaw)
-        x += (v[0] * c - v[1] * s) * dt
-        y += (v[0] * s + v[1] * c) * dt
-        yaw = angles.wrap(yaw + v[2] * dt)
+        (x, y, yaw), v = _base_step((x, y, yaw), v, cmd, acc, dt)
         poses.append((x, y, yaw))
     return np.array(poses)
+
+
+def _base_step(pose, v, cmd, acc, dt):
+    """The base a control period on: its velocity ``v`` toward ``cmd`` within the acceleration limits
+    ``acc`` (each of vx, vy, vth), then the pose moved by it: (pose, v)."""
+    x, y, yaw = pose
+    v = v + np.clip(np.asarray(cmd) - v, -np.asarray(acc) * dt, np.asarray(acc) * dt)
+    c, s = math.cos(yaw), math.sin(yaw)
+    return (x + (v[0] * c - v[1] * s) * dt, y + (v[0] * s + v[1] * c) * dt, angles.wrap(yaw + v[2] * dt)), v
 
 
 def test_corridor_drive_reaches_a_goal_three_metres_away():
@@ -649,11 +654,7 @@ def _leave_the_doorway(lp, cm, plan, pose, seconds=12.0):
         _, cmd, reason = lp.compute_velocity(cm, (x, y, yaw), tuple(v), plan)
         cmds.append(cmd)
         reasons.append(reason)
-        v = v + np.clip(np.asarray(cmd) - v, -np.array([0.5, 0.5, 1.0]) * dt, np.array([0.5, 0.5, 1.0]) * dt)
-        c, s = math.cos(yaw), math.sin(yaw)
-        x += (v[0] * c - v[1] * s) * dt
-        y += (v[0] * s + v[1] * c) * dt
-        yaw = angles.wrap(yaw + v[2] * dt)
+        (x, y, yaw), v = _base_step((x, y, yaw), v, cmd, (0.5, 0.5, 1.0), dt)
         poses.append((x, y, yaw))
         if y > 6.0:
             return (k + 1) * dt, np.array(poses), np.array(cmds), reasons

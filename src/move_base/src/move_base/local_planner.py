@@ -281,7 +281,7 @@ class LocalPlanner:
             self._xy_tolerance_latch = False
 
         else:
-            cmd = self._turn_toward_plan(costmap, x, y, yaw, vx, vy, vth, window)
+            cmd = self._turn_toward_plan(costmap, x, y, yaw, vx, vth, window)
             if cmd is not None:
                 return True, cmd, "turning on the spot toward the plan"
             if holds_goal and p.turn_before_tolerance and p.rotate_while_braking:
@@ -341,7 +341,7 @@ class LocalPlanner:
         yaws = yaw + sweep * np.arange(steps + 1) / steps
         return self._path_is_free(costmap, np.column_stack([np.full_like(yaws, x), np.full_like(yaws, y), yaws]))
 
-    def _turn_toward_plan(self, costmap, x, y, yaw, vx, vy, vth, window):
+    def _turn_toward_plan(self, costmap, x, y, yaw, vx, vth, window):
         """``turn_to_plan_angle``: the command (vx, vy, vth) of a turn on the spot toward the plan
         (braking first if the robot is moving), or None: the robot faces the plan (within
         turn_to_plan_angle, or a third of it once turning), no turn is free either way, or the
@@ -386,13 +386,10 @@ class LocalPlanner:
         acc_lim_theta, at least min_in_place_vel_theta once the robot has stopped; None when the
         braking path or the rest of the turn collides."""
         p = self.params
-        dt = p.sim_period
         way = _sign(sweep)
         vx, vth = self._ramp_from(vx, 0, p.acc_lim_x), self._ramp_from(vth, 2, p.acc_lim_theta)
-        want = way * min(p.max_vel_theta if way > 0 else -p.min_vel_theta,
-                         math.sqrt(2.0 * p.acc_lim_theta * abs(sweep)))
-        cvth = min(max(want, vth - p.acc_lim_theta * dt), vth + p.acc_lim_theta * dt)
-        cvx = _sign(vx) * max(0.0, abs(vx) - p.acc_lim_x * dt)
+        cvth = self._turn_rate(vth, sweep)
+        cvx = _sign(vx) * max(0.0, abs(vx) - p.acc_lim_x * p.sim_period)
         if cvx == 0.0 and cvth * way < p.min_in_place_vel_theta:
             cvth = way * p.min_in_place_vel_theta  # the base's dead band: as rotateToGoal
         points = self._braking_path(x, y, yaw, cvx, cvth, hold=0.0)
@@ -452,9 +449,12 @@ class LocalPlanner:
     def _turn_step(self, yaw, vth, goal_th):
         """The turn rate [rad/s] one control period on from ``vth`` toward the braking speed
         min(max_vel_theta, sqrt(2 acc_lim_theta |error|)) to the goal yaw ``goal_th`` [rad]."""
+        return self._turn_rate(vth, angles.diff(goal_th, yaw))
+
+    def _turn_rate(self, vth, err):
+        """As :meth:`_turn_step` for a turn of ``err`` [rad] still to go (signed, any size)."""
         p = self.params
         dt = p.sim_period
-        err = angles.diff(goal_th, yaw)
         want = math.copysign(min(p.max_vel_theta, math.sqrt(2.0 * p.acc_lim_theta * abs(err))), err)
         return min(max(want, vth - p.acc_lim_theta * dt), vth + p.acc_lim_theta * dt)
 
