@@ -18,6 +18,8 @@ from move_base.people_layer import (
     blocked_plan_reason,
     braking_positions,
     give_way_cells,
+    near_walks,
+    walking_away,
 )
 
 pytestmark = pytest.mark.unit
@@ -132,6 +134,70 @@ def test_trail_of_a_walker():
     assert trail[:, 0].min() == pytest.approx(0.45, abs=0.06) and trail[:, 0].max() == pytest.approx(1.45, abs=0.11)
     assert len(trail) < 10  # thinned
     assert len(ProxemicLayer(trail_time=0.0).trail(0.0)) == 0
+
+
+def test_who_walks_away():
+    people = np.array([[1.0, 0.0, 0.4, 0.0],  # ahead, walking on
+                       [1.0, 0.0, -0.4, 0.0],  # ahead, coming back
+                       [0.0, 1.0, 0.3, 0.3],  # 45 degrees off the line from the robot: 0.3 m/s away
+                       [0.0, 1.0, 0.3, 0.0],  # across the line
+                       [1.0, 0.0, 0.0, 0.0],  # standing
+                       [0.0, 0.0, 0.4, 0.0]])  # at the robot's centre
+    assert walking_away(people, 0.0, 0.0, 0.2).tolist() == [True, False, True, False, False, False]
+    assert walking_away(people, 0.0, 0.0, 0.35).tolist() == [True, False, False, False, False, False]
+    assert walking_away(np.zeros((0, 4)), 0.0, 0.0, 0.2).shape == (0,)
+
+
+def test_legs_seen_along_a_walk():
+    walker = np.array([[2.0, 0.0, 0.4, 0.0]])  # 0.6 m walked in the last 1.5 s: from x 1.4
+    points = np.array([[2.1, 0.1], [1.5, -0.2], [1.2, 0.0], [1.45, 0.35], [2.4, 0.0]])
+    assert near_walks(points, walker, 0.3, 1.5).tolist() == [True, True, True, False, False]
+    standing = np.array([[2.0, 0.0, 0.0, 0.0]])
+    assert near_walks(points, standing, 0.3, 1.5).tolist() == [True, False, False, False, False]
+    assert not near_walks(points, np.zeros((0, 4)), 0.3, 1.5).any()
+
+
+def test_a_person_walking_away_is_followed_not_walled_off():
+    layer = ProxemicLayer(lethal_radius=0.3, follow_speed=0.2)
+    robot = (-1.0, 0.0, 0.25)
+    for vx, lethal in ((0.4, False), (-0.4, True), (0.0, True), (0.1, True)):
+        layer.set_people([Person(0.0, 0.0, vx, 0.0, 0.0)], stamp=0.0)
+        c = grid()
+        layer.update_costs(c, now=0.0, robot=robot)
+        assert (c.cost_at(0.025, 0.025) == LETHAL_OBSTACLE) == lethal, vx
+        assert 0 < c.cost_at(-0.275, 0.025) < LETHAL_OBSTACLE or lethal  # the Gaussian stays
+        assert len(layer.followed(0.0, robot[:2])) == (0 if lethal else 1)
+    # off (ROS and Florence's default): lethal whoever walks away
+    off = ProxemicLayer(lethal_radius=0.3)
+    off.set_people([Person(0.0, 0.0, 0.4, 0.0, 0.0)], stamp=0.0)
+    c = grid()
+    off.update_costs(c, now=0.0, robot=robot)
+    assert c.cost_at(0.025, 0.025) == LETHAL_OBSTACLE and len(off.followed(0.0, robot[:2])) == 0
+
+
+def test_a_corridor_with_a_walker_ahead_is_open_behind_them():
+    """The laser sees the legs of a resident walking ahead along a 1.3 m corridor: with follow_speed
+    their marks and core are freed and a plan leads along the corridor behind them; coming the other
+    way, they close it."""
+    src = ObservationSource("scan", clearing=True)
+    results = {}
+    for follow_speed in (0.0, 0.2):
+        for vx in (0.4, -0.4):
+            lay = LayeredCostmap(120, 40, 0.05, 0.0, 0.0, static_map=True, sources=[src], inflation_radius=0.4,
+                                 proxemic={"lethal_radius": 0.3, "follow_speed": follow_speed, "trail_time": 0.0})
+            static = np.zeros((40, 120), dtype=np.int8)
+            static[3, :] = static[29, :] = 100  # walls at y 0.15 and 1.45: a corridor 1.3 m wide
+            lay.set_static_map(static.ravel(), 120, 40, 0.05, 0.0, 0.0)
+            legs = np.array([[3.0, 0.7, 0.165], [3.0, 0.9, 0.165]])
+            lay.obstacles.add_observation("scan", (1.0, 0.8, 0.165), legs, stamp=0.0)
+            lay.people.set_people([Person(3.0, 0.8, vx, 0.0, 0.0)], stamp=0.0)
+            lay.update(1.0, 0.8, 0.0, now=0.0)
+            cell = lay.costmap.world_to_map(1.0, 0.8)
+            potential = compute_potential(translate_costs(lay.costmap.costs, False, cell), cell)
+            results[follow_speed, vx] = bool(np.isfinite(potential[16, 100]))  # (5.0, 0.8), beyond them
+            if results[follow_speed, vx]:
+                assert lay.costmap.cost_at(3.0, 0.7) < INSCRIBED_INFLATED_OBSTACLE
+    assert results == {(0.0, 0.4): False, (0.0, -0.4): False, (0.2, 0.4): True, (0.2, -0.4): False}
 
 
 # --- the local planner's rule --------------------------------------------------------------------

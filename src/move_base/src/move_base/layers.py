@@ -427,11 +427,11 @@ class ObstacleLayer:
         marking = [(b.source, o) for b in self.buffers.values() if b.source.marking for o in b.observations]
         if clearing:
             self._raytrace(clearing)
-        self._clear_discs(clear_discs)
+        self.clear_discs(clear_discs)
         if marking:
             self._mark(marking)
 
-    def _clear_discs(self, discs):
+    def clear_discs(self, discs):
         """Free the cells within each disc (x, y, radius) [m] (see :meth:`update`)."""
         if discs is None or len(discs) == 0 or self.grid is None:
             return
@@ -778,6 +778,12 @@ class LayeredCostmap:
         # before the newest readings mark what is there now (a walker who left the Kinect's view
         # would otherwise leave a trail of voxels behind)
         self.obstacles.update(None if self.people is None else self.people.trail(now))
+        if self.people is not None and self.people.follow_speed > 0.0:
+            # a person walking away is followed, not planned round (people_layer): what the sensors
+            # see of them now is freed too
+            followed = self.people.followed(now, self._robot)
+            self.obstacles.clear_discs(np.column_stack([followed[:, :2], np.full(len(followed),
+                                                                                   self.people.trail_radius)]))
         self._under_robot = None
         if robot_yaw is not None:
             self._under_robot = polygon_cells(c, transform_footprint(self.footprint, robot_x, robot_y, robot_yaw))

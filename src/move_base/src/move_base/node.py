@@ -60,6 +60,8 @@ from move_base.people_layer import (
     RecentPoints,
     blocked_plan_reason,
     give_way_cells,
+    near_walks,
+    walking_away,
 )
 from move_base.recovery import (
     CLEAR_COSTMAP_PARAMS,
@@ -283,6 +285,12 @@ class PeopleAdapter:
         or None."""
         costmap = self.node.planner_costmap
         blockers, tracked = self._blockers(pose, 2.0)
+        layer = costmap.layered.people
+        if tracked and layer is not None and layer.follow_speed > 0.0:
+            # nobody needs the robot out of the way of a person walking away from it (it follows them)
+            away = walking_away(blockers[:tracked], pose[0], pose[1], layer.follow_speed)
+            blockers = np.concatenate([blockers[:tracked][~away], blockers[tracked:]])
+            tracked -= int(away.sum())
         if not len(blockers):
             return None
         with costmap.lock:
@@ -410,15 +418,23 @@ class MoveBaseNode:
 
     def unmapped_near(self, pose, radius):
         """(N, 2) [m] in the global frame: the leg-height returns the maps do not explain within
-        ``radius`` of ``pose``, seen now or in the last 1.5 s (LayeredCostmap.unmapped_marks)."""
+        ``radius`` of ``pose``, seen now or in the last 1.5 s (LayeredCostmap.unmapped_marks), less
+        the legs of a person the robot follows (people_layer.walking_away: the local planner keeps
+        them at min_person_distance as they walk on; their legs, seen along their last 1.5 s of
+        walking, are not people standing still)."""
         costmap = self.planner_costmap
         now = rospy.get_time()
         with costmap.lock:
             seen = costmap.layered.unmapped_marks(pose[0], pose[1], max(radius, 2.5))
+            people = costmap.layered.people
+            followed = people.followed(now, pose[:2]) if people is not None else np.zeros((0, 4))
         with self._still_lock:
             self.recent_still.add(now, seen)
             pts = self.recent_still.get(now)
-        return pts[np.hypot(pts[:, 0] - pose[0], pts[:, 1] - pose[1]) <= radius]
+        pts = pts[np.hypot(pts[:, 0] - pose[0], pts[:, 1] - pose[1]) <= radius]
+        if len(followed):
+            pts = pts[~near_walks(pts, followed, people.trail_radius, self.recent_still.keep)]
+        return pts
 
     def _local_footprint_cost(self, points):
         local = self.controller_costmap

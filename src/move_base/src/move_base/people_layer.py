@@ -14,10 +14,14 @@ factor 5 s/m, keep_time 0.75 s.
 
 Florence's additions: ``lethal_radius`` [m] makes the disc round each person lethal, before the
 inflation, so that a plan keeps the robot's centre at least lethal_radius + the inscribed radius
-from them (0: none, as ROS); a person lapses ``keep_time`` after the tracker last saw them (the
-person is gone from the costmap once their track is gone; ROS keeps the last message's people
-until the next message). Positions are carried forward along the velocity to the update's time
-(at most keep_time).
+from them (0: none, as ROS); with ``follow_speed`` > 0, a person walking away from the robot at
+least that fast gets no lethal disc and their obstacle marks are freed (:func:`walking_away`): a
+resident walking ahead along a corridor the robot must take leaves it only at its far end, so a
+plan round them would wait for ever; the robot follows them instead, and the local planner's
+min_person_distance, which walks them on at their velocity, keeps the gap. A person lapses
+``keep_time`` after the tracker last saw them (the person is gone from the costmap once their
+track is gone; ROS keeps the last message's people until the next message). Positions are
+carried forward along the velocity to the update's time (at most keep_time).
 
 Units: metres, seconds, radians; positions in the costmap's frame.
 """
@@ -46,6 +50,10 @@ PROXEMIC_PARAMS = ParamTable(
           "marked again; 0: none)", unit="s", ge=0.0),
     Param("trail_radius", float, 0.3, "Florence: see trail_time (a person's body about their tracked centre)",
           unit="m", ge=0.0),
+    Param("follow_speed", float, 0.0, "Florence: a person walking away from the robot at least this fast (their "
+          "speed along the line from the robot's centre to theirs) is followed, not planned round: no lethal disc, "
+          "and the obstacle marks within trail_radius of them are freed after each update's marking (0: none)",
+          unit="m/s", ge=0.0),
 )
 """A costmap's proxemic layer (``~<costmap>/proxemic/``: ProxemicLayer's names and defaults plus
 Florence's lethal_radius)."""
@@ -67,7 +75,7 @@ class ProxemicLayer:
     """The people's costs (see the module docstring); ``params``: :data:`PROXEMIC_PARAMS`' values."""
 
     def __init__(self, amplitude=77.0, covariance=0.25, cutoff=10.0, factor=5.0, keep_time=0.75, lethal_radius=0.0,
-                 trail_time=5.0, trail_radius=0.3):
+                 trail_time=5.0, trail_radius=0.3, follow_speed=0.0):
         self.amplitude = float(amplitude)
         self.covariance = float(covariance)
         self.cutoff = float(cutoff)
@@ -76,6 +84,7 @@ class ProxemicLayer:
         self.lethal_radius = float(lethal_radius)
         self.trail_time = float(trail_time)
         self.trail_radius = float(trail_radius)
+        self.follow_speed = float(follow_speed)
         self._people = {}  # id -> (Person, stamp [s] of the message it came in)
         self._stamp = None  # [s] the newest message's time
         self._trail = []  # (t [s], x [m], y [m]) of every tracked person of the last trail_time
@@ -133,6 +142,14 @@ class ProxemicLayer:
             ids.append(pid)
         return np.array(rows, dtype=float).reshape(-1, 4), ids
 
+    def followed(self, now, robot):
+        """(N, 4) x, y [m], vx, vy [m/s]: the people at ``now`` [s] (:meth:`current`) walking away
+        from ``robot`` = (x, y) [m] at least follow_speed (none when follow_speed is 0)."""
+        people, _ = self.current(now)
+        if self.follow_speed <= 0.0 or robot is None:
+            return people[:0]
+        return people[walking_away(people, robot[0], robot[1], self.follow_speed)]
+
     def radius(self, speed=0.0):
         """Reach [m] of the cost round a person walking at ``speed`` [m/s] (ProxemicLayer's
         get_radius of the stretched variance), at least lethal_radius."""
@@ -172,7 +189,9 @@ class ProxemicLayer:
         known = window != NO_INFORMATION
         write = known & (cost >= self.cutoff)
         window[write] = np.maximum(window[write], cost[write].astype(np.uint8))
-        if self.lethal_radius > 0.0:
+        away = self.follow_speed > 0.0 and robot is not None and walking_away(
+            np.array([[px, py, vx, vy]]), robot[0], robot[1], self.follow_speed)[0]
+        if self.lethal_radius > 0.0 and not away:
             lethal = np.hypot(dx, dy) <= self.lethal_radius
             if robot is not None:
                 rx, ry, keep_clear = robot
@@ -189,6 +208,33 @@ GIVE_WAY_MIN_DISTANCE = 1.0  # [m]
 GIVE_WAY_KEEP_OFF = 0.75  # [m]
 GIVE_WAY_MAX_COST = 200
 STILL_MARGIN = 0.1  # [m] a leg's distance from a person's centre
+
+
+def walking_away(people, x, y, speed):
+    """Which of ``people`` (P, 4) x, y [m], vx, vy [m/s] walk away from (x, y) [m] at least
+    ``speed`` [m/s] (their velocity's component along the line from (x, y) to them; a person at
+    (x, y) walks away from nobody). Returns a bool array (P,)."""
+    people = np.asarray(people, dtype=float).reshape(-1, 4)
+    rx, ry = people[:, 0] - x, people[:, 1] - y
+    d = np.hypot(rx, ry)
+    radial = (people[:, 2] * rx + people[:, 3] * ry) / np.maximum(d, 1e-9)
+    return (d > 1e-6) & (radial >= speed)
+
+
+def near_walks(points, people, radius, back):
+    """Which ``points`` (N, 2) [m] lie within ``radius`` [m] of where one of ``people`` (P, 4)
+    walked in the last ``back`` [s] at their velocity (the segment from (x - vx back, y - vy back)
+    to (x, y)): their legs, seen there lately. Returns a bool array (N,)."""
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    people = np.asarray(people, dtype=float).reshape(-1, 4)
+    out = np.zeros(len(points), dtype=bool)
+    for px, py, vx, vy in people:
+        sx, sy = -vx * back, -vy * back
+        length2 = sx * sx + sy * sy
+        dx, dy = points[:, 0] - px, points[:, 1] - py
+        u = np.clip((dx * sx + dy * sy) / length2, 0.0, 1.0) if length2 > 1e-12 else 0.0
+        out |= np.hypot(dx - u * sx, dy - u * sy) <= radius
+    return out
 
 
 def braking_positions(times, start, speed, acc):

@@ -213,7 +213,7 @@ class VoxelLayer(ObstacleLayer):
             if b.source.clearing:
                 for obs in b.observations:
                     self._clear(b.source, obs)
-        self._clear_discs(clear_discs)
+        self.clear_discs(clear_discs)
         for b in self.buffers.values():
             if b.source.marking:
                 for obs in b.observations:
