@@ -664,7 +664,8 @@ def _leave_the_doorway(lp, cm, plan, pose, seconds=12.0):
 def test_facing_away_from_the_plan_in_a_doorway_turns_on_the_spot_one_way_then_drives_out():
     """move_base gave way into the living room's door, the robot's back to the corridor; when the way was
     free its plan led north, behind it. The rollouts arced to and fro (their oscillation flags reset by
-    each replan) and the collision monitor stopped the arcs near the jambs: in florence_sim the robot
+    each replan) while move_base's commands turned it on the spot (the collision monitor's state,
+    "turning in place", is what it says of a command with no linear part): in florence_sim the robot
     stayed in the door until the recoveries turned it. With turn_to_plan_angle it turns on the spot, one
     way, without moving off its place, then drives out."""
     cm, plan = _doorway()
