@@ -242,15 +242,18 @@ def navigate(master, saved, common, start, keepout):
         for room in ROOM_ORDER:
             h = rooms[room]["hotspot"]
             goal = pose.relative(start, (h["x"], h["y"], h["phi"]))  # the hotspot in the saved map's frame
+            bumps = session.collisions
             state, text, took, driven = session.go(*goal, sim_timeout=180.0)
             here = session.latest()
             error = math.hypot(here[1] - h["x"], here[2] - h["y"])
             legs.append({"room": room, "state": state, "text": text, "time_s": took, "driven_m": driven,
-                         "error_m": error})
+                         "error_m": error, "collisions": session.collisions - bumps})
             print(f"  {room:12s} {state:9s} {took:6.1f} s, {driven:5.2f} m, {error:.2f} m from the hotspot {text}",
                   flush=True)
         result = {"legs": legs, "reached": sum(leg["state"] == "SUCCEEDED" for leg in legs),
-                  "hotspots": len(ROOM_ORDER), "collisions": session.collisions}
+                  "hotspots": len(ROOM_ORDER), "collisions": session.collisions,
+                  # ground truth (t, x, y, yaw, v, w) in the world's frame when the bumper count went up
+                  "collision_poses": list(session.collision_poses)}
         session.close()
         return result
     finally:
