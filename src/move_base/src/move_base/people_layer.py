@@ -56,7 +56,7 @@ PROXEMIC_PARAMS = ParamTable(
           unit="m/s", ge=0.0),
 )
 """A costmap's proxemic layer (``~<costmap>/proxemic/``: ProxemicLayer's names and defaults plus
-Florence's lethal_radius)."""
+Florence's lethal_radius, trail_time, trail_radius and follow_speed)."""
 
 
 @dataclass
