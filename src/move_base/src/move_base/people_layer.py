@@ -146,9 +146,14 @@ class ProxemicLayer:
         """(N, 4) x, y [m], vx, vy [m/s]: the people at ``now`` [s] (:meth:`current`) walking away
         from ``robot`` = (x, y) [m] at least follow_speed (none when follow_speed is 0)."""
         people, _ = self.current(now)
+        return people[self._walking_away(people, robot)]
+
+    def _walking_away(self, people, robot):
+        """Which of ``people`` (P, 4) walk away from ``robot`` (x, y, ...) [m] at least
+        follow_speed (none when follow_speed is 0 or the robot's place is unknown)."""
         if self.follow_speed <= 0.0 or robot is None:
-            return people[:0]
-        return people[walking_away(people, robot[0], robot[1], self.follow_speed)]
+            return np.zeros(len(people), dtype=bool)
+        return walking_away(people, robot[0], robot[1], self.follow_speed)
 
     def radius(self, speed=0.0):
         """Reach [m] of the cost round a person walking at ``speed`` [m/s] (ProxemicLayer's
@@ -163,10 +168,11 @@ class ProxemicLayer:
         (x, y, keep_clear) [m]: no lethal cell within keep_clear of the robot's centre, so that a
         person standing close does not wall the robot in (a plan from its cell could not start)."""
         people, _ = self.current(now)
-        for px, py, vx, vy in people:
-            self._write_person(master, px, py, vx, vy, robot)
+        away = self._walking_away(people, robot)  # followed: no lethal core
+        for (px, py, vx, vy), followed in zip(people, away, strict=True):
+            self._write_person(master, px, py, vx, vy, robot, lethal=not followed)
 
-    def _write_person(self, master, px, py, vx, vy, robot=None):
+    def _write_person(self, master, px, py, vx, vy, robot=None, lethal=True):
         speed = math.hypot(vx, vy)
         reach = self.radius(speed)
         res = master.resolution
@@ -189,14 +195,12 @@ class ProxemicLayer:
         known = window != NO_INFORMATION
         write = known & (cost >= self.cutoff)
         window[write] = np.maximum(window[write], cost[write].astype(np.uint8))
-        away = self.follow_speed > 0.0 and robot is not None and walking_away(
-            np.array([[px, py, vx, vy]]), robot[0], robot[1], self.follow_speed)[0]
-        if self.lethal_radius > 0.0 and not away:
-            lethal = np.hypot(dx, dy) <= self.lethal_radius
+        if self.lethal_radius > 0.0 and lethal:
+            core = np.hypot(dx, dy) <= self.lethal_radius
             if robot is not None:
                 rx, ry, keep_clear = robot
-                lethal &= np.hypot(dx + px - rx, dy + py - ry) > keep_clear
-            window[lethal] = LETHAL_OBSTACLE
+                core &= np.hypot(dx + px - rx, dy + py - ry) > keep_clear
+            window[core] = LETHAL_OBSTACLE
 
 
 # --- the local planner's rule and move_base's waiting -------------------------------------------------
