@@ -5,7 +5,16 @@ import math
 
 import numpy as np
 import pytest
-from user_tracker_ni.laser_legs import LegParams, detect, find_legs, pair_legs, partner_hidden, scan_points
+from user_tracker_ni.laser_legs import (
+    LegParams,
+    detect,
+    find_legs,
+    in_view,
+    pair_legs,
+    partner_beyond_edge,
+    partner_hidden,
+    scan_points,
+)
 
 from florence_common import pose
 
@@ -72,6 +81,37 @@ def test_the_inverted_laser_through_its_pose():
     ranges = render([(2.0, 0.6, 0.065), (2.0, 0.4, 0.065)])[::-1]  # what an upside-down laser reports
     _, people = run(ranges, inverted)
     assert people[0] == pytest.approx((2.06, 0.5), abs=0.02)  # on the robot's left, where they stand
+
+
+def test_what_lies_outside_the_scans_bearings_is_out_of_view():
+    """-120..+120 degrees of the laser: behind the robot it sees nothing, upright or upside down."""
+    amax = AMIN + INC * (N - 1)
+    at = [(math.cos(math.radians(b)), math.sin(math.radians(b))) for b in (0, 100, -100, 125, -125, 180)]
+    expected = [True, True, True, False, False, False]
+    assert in_view(at, AMIN, amax, IDENTITY).tolist() == expected
+    # the Florence mount: rolled by pi at the robot's front; bearings from the laser itself
+    inverted = pose.transform_matrix((0.06, 0.0, 0.15), (1.0, 0.0, 0.0, 0.0))
+    shifted = [(x + 0.06, y) for x, y in at]
+    assert in_view(shifted, AMIN, amax, inverted).tolist() == expected
+    # turned: the robot faces +y in the output frame
+    turned = pose.transform_matrix((1.0, 2.0, 0.15), (0.0, 0.0, math.sin(math.pi / 4), math.cos(math.pi / 4)))
+    assert in_view([(1.0, 3.0), (1.0, 1.0), (2.0, 2.0)], AMIN, amax, turned).tolist() == [True, False, True]
+    # a margin inside either end; a scan all round sees every bearing
+    edge = [(math.cos(math.radians(118)), math.sin(math.radians(118)))]
+    assert in_view(edge, AMIN, amax, IDENTITY, margin=0.0).tolist() == [True]
+    assert in_view(edge, AMIN, amax, IDENTITY, margin=0.1).tolist() == [False]
+    assert in_view([(-1.0, 0.0)], -math.pi, math.pi, IDENTITY).tolist() == [True]
+    assert in_view(np.zeros((0, 2)), AMIN, amax, IDENTITY).shape == (0,)
+
+
+def test_a_lone_leg_at_the_end_of_the_view_may_have_its_partner_beyond_it():
+    amax = AMIN + INC * (N - 1)
+    legs = [(2.0 * math.cos(math.radians(b)), 2.0 * math.sin(math.radians(b))) for b in (0, 90, 115, -115, -108, -100)]
+    # at 2 m a 0.5 m stride is 14 degrees across: within it of the 120 degree ends
+    assert partner_beyond_edge(legs, AMIN, amax, IDENTITY, P).tolist() == [False, False, True, True, True, False]
+    near = [(0.5 * math.cos(math.radians(75)), 0.5 * math.sin(math.radians(75)))]  # 45 degrees off at 0.5 m
+    assert partner_beyond_edge(near, AMIN, amax, IDENTITY, P).tolist() == [True]
+    assert partner_beyond_edge(np.zeros((0, 2)), AMIN, amax, IDENTITY, P).shape == (0,)
 
 
 def test_nan_inf_and_empty_scans():

@@ -340,6 +340,81 @@ def test_a_coasting_track_is_published_no_further_than_the_coast_limit():
     assert track.output(0.3)[0] == pytest.approx(last_x + 0.3, abs=0.15)  # what is published does not
 
 
+def _confirmed_walker(tracker, rng, t=0.0, speed=0.4):
+    """A person walking toward -x at ``speed`` from x = 2, seen by both sensors for 1 s."""
+    for _ in range(10):
+        x = 2.0 - speed * t
+        tracker.update(t, [kinect(x, 0.0, RED, rng)], KINECT)
+        tracker.update(t, [laser(x, 0.0, rng)], LASER)
+        t += 0.1
+    (track,) = tracker.published()
+    return track, t
+
+
+def test_a_person_behind_the_robot_is_kept_standing_where_they_were_going():
+    """The robot turned its back on them: not seeing them says nothing."""
+    rng = np.random.default_rng(21)
+    tracker = Tracker(TrackerParams(timeout=1.0, hidden_timeout=10.0, coast_limit=0.3))
+    track, t = _confirmed_walker(tracker, rng)
+    last = 2.0 - 0.4 * (t - 0.1)
+    for _ in range(90):  # 9 s out of the laser's view, no detection
+        tracker.out_of_view(t, [track])
+        tracker.update(t, [], LASER)
+        tracker.update(t, [], KINECT)
+        t += 0.1
+    assert tracker.published() == [track]
+    assert track.standing
+    assert track.output(0.3)[0] == pytest.approx(last - 0.4 * 0.3, abs=0.1)  # where they were going
+    assert track.position == pytest.approx(track.output(0.3), abs=0.05)  # the filter stands there too
+    assert track.velocity == pytest.approx((0.0, 0.0), abs=0.05)
+    # back in view, there: the laser's legs update the same track
+    x = track.position[0]
+    for _ in range(5):
+        tracker.update(t, [laser(x, 0.0, rng, free=False)], LASER)
+        t += 0.1
+    assert tracker.published() == [track] and not track.standing
+
+
+def test_a_person_behind_the_robot_is_dropped_after_hidden_timeout_or_once_in_view():
+    rng = np.random.default_rng(22)
+    tracker = Tracker(TrackerParams(timeout=1.0, hidden_timeout=5.0))
+    track, t = _confirmed_walker(tracker, rng)
+    start = t
+    while tracker.published():  # out of view for good
+        tracker.out_of_view(t, [track])
+        tracker.update(t, [], LASER)
+        t += 0.1
+        assert t - start < 6.0
+    assert t - start == pytest.approx(5.0, abs=0.25)
+    # out of view for 3 s, then in view with nobody there: dropped a timeout later
+    track, t = _confirmed_walker(tracker, rng, t)
+    start = t
+    for _ in range(30):
+        tracker.out_of_view(t, [track])
+        tracker.update(t, [], LASER)
+        t += 0.1
+    back = t
+    while tracker.published():
+        tracker.update(t, [], LASER)
+        t += 0.1
+        assert t - back < 2.0
+    assert t - back == pytest.approx(1.0, abs=0.25)
+
+
+def test_without_hidden_timeout_a_person_behind_the_robot_is_dropped_as_before():
+    rng = np.random.default_rng(23)
+    tracker = Tracker(TrackerParams(timeout=1.0, hidden_timeout=0.0))
+    track, t = _confirmed_walker(tracker, rng)
+    start = t
+    while tracker.published():
+        tracker.out_of_view(t, [track])
+        tracker.update(t, [], LASER)
+        t += 0.1
+    assert t - start == pytest.approx(1.0, abs=0.25)
+    with pytest.raises(ValueError):
+        Tracker(TrackerParams(hidden_timeout=-1.0))
+
+
 def test_detections_on_the_maps_walls_are_nobody():
     tracker = Tracker()
     for k in range(10):

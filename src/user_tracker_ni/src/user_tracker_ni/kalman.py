@@ -57,6 +57,15 @@ class ConstantVelocity:
         self.x, self.P = self.predicted(t)
         self.t = max(self.t, float(t))
 
+    def stand(self, x, y, vel_std=1.0):
+        """Put the state at (x, y) [m], standing still: the position's uncertainty is kept (its
+        cross terms with the velocity dropped), the velocity's is ``vel_std`` [m/s] again, as at
+        the start."""
+        self.x = np.array([float(x), float(y), 0.0, 0.0])
+        P = np.diag([vel_std**2] * 4)
+        P[:2, :2] = self.P[:2, :2]
+        self.P = P
+
     def innovation(self, z, noise, t=None):
         """(residual [2], covariance S [2x2]) of measurement ``z`` at ``t``; ``noise``: its standard
         deviation [m], the same in every direction, or its 2x2 covariance [m^2]."""

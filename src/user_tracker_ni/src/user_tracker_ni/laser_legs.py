@@ -11,7 +11,9 @@ bump on a wall is not a leg). Its centre is the mean of its returns moved back a
 hidden behind it) is a person by itself. Such a lone leg with something nearer than it by
 ``hidden_margin`` within ``max_pair_distance`` of it across the line of sight may have its
 partner hidden behind that (another person crossing in front): :func:`partner_hidden` says so,
-and the tracker trusts its side less (its centre is off the person's, up to a stride).
+and the tracker trusts its side less (its centre is off the person's, up to a stride); so does a
+lone leg at either end of the scan's bearings (:func:`partner_beyond_edge`), whose partner may be
+out of view. :func:`in_view` tells what lies within those bearings at all.
 
 Points are placed through the laser's 4x4 pose in the output frame, so the upside-down
 mounting (rolled by pi: the scan runs clockwise) needs no special case.
@@ -164,6 +166,38 @@ def partner_hidden(xy, valid, sensor_xy, legs, params):
     nearer = rng[None, :] <= leg_rng[:, None] - params.hidden_margin
     out[:] = np.any((off <= window) & nearer, axis=1)
     return out
+
+
+def in_view(points, angle_min, angle_max, laser_pose, margin=0.1):
+    """Boolean [N]: whether the points [N, 2] (output frame) lie within the scan's bearings,
+    ``angle_min``..``angle_max`` [rad] in the laser frame, ``margin`` [rad] (or [N] of them)
+    inside either end: the laser cannot see a person outside them (behind the robot) at all.
+    Bearings are taken in the laser's plane, so the upside-down mounting (its scan runs
+    clockwise) needs no special case."""
+    pts = np.asarray(points, dtype=float).reshape(-1, 2)
+    pose = np.asarray(laser_pose, dtype=float)
+    lo, hi = min(angle_min, angle_max), max(angle_min, angle_max)
+    if hi - lo >= 2 * np.pi:
+        return np.ones(len(pts), bool)  # all round
+    world = np.column_stack([pts, np.full(len(pts), pose[2, 3])])
+    local = (world - pose[:3, 3]) @ pose[:3, :3]  # output -> laser frame (R^T (p - t))
+    bearing = np.arctan2(local[:, 1], local[:, 0])
+    # the bearing measured from the middle of the scan, within -pi..pi
+    off = (bearing - (lo + hi) / 2 + np.pi) % (2 * np.pi) - np.pi
+    return np.abs(off) <= (hi - lo) / 2 - margin
+
+
+def partner_beyond_edge(legs, angle_min, angle_max, laser_pose, params):
+    """For each leg [L, 2] (lone legs): whether it lies within ``max_pair_distance`` (across the
+    line of sight, at its range) of either end of the scan's bearings, where its partner may be
+    out of the laser's view: at the edge of the view a person is one leg, up to a stride off
+    their centre, and it would drag their track sideways as they go out of view."""
+    legs = np.asarray(legs, dtype=float).reshape(-1, 2)
+    if not len(legs):
+        return np.zeros(0, bool)
+    rng = np.hypot(*(legs - np.asarray(laser_pose, dtype=float)[:2, 3]).T)
+    window = np.arctan2(params.max_pair_distance, np.maximum(rng, 1e-6))
+    return ~in_view(legs, angle_min, angle_max, laser_pose, margin=window)
 
 
 def detect(ranges, angle_min, angle_increment, range_min, range_max, laser_pose, params):

@@ -146,8 +146,11 @@ TRACKER = ParamTable(
           "a track in the Kinect's clear view that it did not detect for this long is dropped", unit="s", gt=0),
     Param("tracker/coast_limit", float, TrackerParams.coast_limit,
           "a published position extrapolates at most this long past the track's last update", unit="s", gt=0),
-    Param("tracker/timeout", float, TrackerParams.timeout, "a confirmed track no sensor saw for this long is dropped",
-          unit="s", gt=0),
+    Param("tracker/timeout", float, TrackerParams.timeout,
+          "a confirmed track no sensor saw for this long (in the laser's view) is dropped", unit="s", gt=0),
+    Param("tracker/hidden_timeout", float, TrackerParams.hidden_timeout,
+          "a confirmed track out of the laser's view (behind the robot) is kept this long without an update, "
+          "standing where it was last going (0: no longer than timeout)", unit="s", ge=0),
     Param("tracker/tentative_timeout", float, TrackerParams.tentative_timeout, "the same for a tentative track",
           unit="s", gt=0),
     Param("tracker/id_wait", float, TrackerParams.id_wait,

@@ -33,7 +33,13 @@ Life of a track:
 - A confirmed track is kept by either sensor: a person who leaves the Kinect's view (close up,
   or beside the robot) stays tracked while the laser sees their legs.
 - A track no sensor has updated for ``timeout`` (confirmed) or ``tentative_timeout``
-  (tentative) is dropped.
+  (tentative) is dropped. Only time in a sensor's field of view counts for a confirmed track: one
+  out of the laser's bearings (behind the robot: the caller says which, :meth:`Tracker.out_of_view`)
+  is kept up to ``hidden_timeout`` without an update, and once out of view for longer than
+  ``timeout`` it stands where it was last going (the position it is published at). The robot that
+  turns its back on a person waiting for it does not forget them (a person in a corridor, whom
+  the robot forgot each time it turned away, made its plan flip between the corridor and a
+  detour at every turn); once in view again, it is dropped after ``timeout`` without an update.
 - A detection on thin static structure of the robot's map (a wall, a door frame, a pole; the
   caller marks it) is nobody: it is not used at all (a person's centre is never inside a wall,
   and such a detection would drag a track onto it).
@@ -122,7 +128,8 @@ class TrackerParams:
     max_speed: float = 2.0  # [m/s] a tentative track takes no detection farther than this speed allows
     unseen_timeout: float = 1.0  # [s] a track in the Kinect's clear view it did not detect for this long is dropped
     coast_limit: float = 0.3  # [s] a published position extrapolates at most this long past the last update
-    timeout: float = 1.0  # [s] a confirmed track no sensor updated for this long is dropped
+    timeout: float = 1.0  # [s] a confirmed track no sensor updated for this long is dropped ...
+    hidden_timeout: float = 10.0  # [s] ... but one out of the laser's view is kept this long (0: no longer)
     tentative_timeout: float = 0.6  # [s] the same for a tentative track
     id_wait: float = 1.0  # [s] a confirmed track waits this long for a signature before a new id ...
     id_wait_max: float = 2.0  # [s] ... out of the Kinect's view; in front of it, this long at most
@@ -142,6 +149,8 @@ class TrackerParams:
                      "process_noise", "unseen_timeout", "coast_limit"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
+        if not self.hidden_timeout >= 0:
+            raise ValueError(f"hidden_timeout must be >= 0, got {self.hidden_timeout}")
         if not 1 <= self.confirm_hits <= self.confirm_window or self.max_tracks < 1 or not 0 <= self.id_wait \
                 <= self.id_wait_max:
             raise ValueError("need 1 <= confirm_hits <= confirm_window, max_tracks >= 1, 0 <= id_wait <= id_wait_max")
@@ -169,6 +178,8 @@ class Track:
     start: tuple  # (x, y) [m] where it started
     last_kinect: float | None = None  # [s]
     unseen_since: float | None = None  # [s] in the Kinect's clear view, not detected, since
+    hidden_at: float | None = None  # [s] the latest reading at which it was out of the laser's view
+    standing: bool = False  # out of view past ``timeout``: held still where it was last going
     last_laser: float | None = None  # [s]
     kinect_hits: int = 0
     laser_hits: int = 0
@@ -277,6 +288,7 @@ class Tracker:
         track.filter.update((det.x, det.y), det.noise, det.tells_velocity)
         track.last_update = t
         track.updated = (track.position, track.velocity)
+        track.standing = False
         track.sources.add(det.source)
         if det.source == KINECT:
             track.last_kinect = t
@@ -302,6 +314,22 @@ class Tracker:
             if track.unseen_since is None or t - track.unseen_since < self.params.unseen_timeout:
                 kept.append(track)
         self.tracks = kept
+
+    def out_of_view(self, t, tracks):
+        """At the reading of time ``t``: ``tracks`` (of self.tracks) lay outside the laser's field
+        of view (its bearings): their time without an update does not count. A confirmed one out
+        of view for more than ``timeout`` since its last update stands still where it is published."""
+        p = self.params
+        if p.hidden_timeout <= 0.0:
+            return
+        for track in tracks:
+            if not track.confirmed:
+                continue
+            track.hidden_at = t
+            if not track.standing and t - track.last_update > p.timeout:
+                track.filter.predict(t)
+                track.filter.stand(*track.output(p.coast_limit))
+                track.standing = True
 
     def published(self):
         """Confirmed tracks that have a persistent id, by persistent id."""
@@ -368,6 +396,7 @@ class Tracker:
 
     def _record(self, track, det, t, source):
         track.last_update = t
+        track.standing = False
         track.updated = (track.position, track.velocity)
         track.sources.add(source)
         x, y = track.position
@@ -445,7 +474,10 @@ class Tracker:
         for track in self.tracks:
             limit = p.timeout if track.confirmed else p.tentative_timeout
             failed = not track.confirmed and track.origin == KINECT and track.kinect_frames >= p.confirm_window
-            if t - track.last_update <= limit and not failed and not track.superseded:
+            # time out of the laser's view does not count, up to hidden_timeout
+            since = track.last_update if track.hidden_at is None else max(track.last_update, track.hidden_at)
+            fresh = t - since <= limit and (track.hidden_at is None or t - track.last_update <= p.hidden_timeout)
+            if fresh and not failed and not track.superseded:
                 kept.append(track)
                 self._maybe_confirm(track, t)
         self.tracks = [tr for tr in kept if not tr.superseded]
