@@ -485,6 +485,59 @@ def test_giving_way_after_give_way_after():
     assert ctrl.giving_way[-1] is False and results[-1][1] == CONTROLLING
 
 
+class StuckGivingWay(GivingWayController):
+    """A give-way plan the robot never gets along: valid zero commands (pressed against a jamb)."""
+
+    def set_plan(self, poses, giving_way=False):
+        super().set_plan(poses, giving_way)
+        self.plan_times = getattr(self, "plan_times", []) + [(self.people.now, giving_way)]
+
+    def is_goal_reached(self):
+        return False if self.giving_way and self.giving_way[-1] else super().is_goal_reached()
+
+    def compute_velocity(self, pose):
+        if self.giving_way and self.giving_way[-1]:
+            return True, (0.0, 0.0, 0.0), ""
+        return super().compute_velocity(pose)
+
+
+def test_a_give_way_move_that_gets_nowhere_ends():
+    """The person waited for walks off while the robot stands in its give-way move: the move ends
+    after GIVE_WAY_PATIENCE without progress, and the robot goes on once the way is free."""
+    from move_base.move_base_core import GIVE_WAY_PATIENCE
+
+    people = FakePeople(lambda now: 1.0 <= now < 12.0, aside=(-1.0, 1.0, 2.0))
+    ctrl = StuckGivingWay(people, reached_after=None)
+    core = MoveBaseCore(core_params(planner_patience=1.0, person_wait_timeout=60.0, give_way_after=3.0),
+                        WaitingPlanner(people), ctrl, [], people=people)
+    core.set_goal((5.0, 0.0, 0.0), 0.0, POSE)
+    results = run_people(core, people, n=150)[3]
+    giving = [now for now, state, r in results if r.text == "giving way to people"]
+    assert 4.0 <= min(giving) <= 4.5  # 3 s into the wait
+    # each move (a plan out of the way) gives up GIVE_WAY_PATIENCE after it began; 3 at most
+    starts = [t for t, aside in ctrl.plan_times if aside]
+    assert 1 <= len(starts) <= 3
+    for k, s0 in enumerate(starts):
+        s1 = starts[k + 1] if k + 1 < len(starts) else math.inf
+        assert max(n for n in giving if s0 <= n < s1) - s0 <= GIVE_WAY_PATIENCE + 0.3
+    # before, the first move ran until the person it waited for came back, and the robot with it
+    going_on = min(now for now, state, r in results if state == CONTROLLING and now > 12.0)
+    assert going_on < 12.0 + GIVE_WAY_PATIENCE + 0.5
+    # a move that makes progress is not cut short: the robot 0.1 m nearer every second
+    people = FakePeople(lambda now: 1.0 <= now < 40.0, aside=(-3.0, 0.0, 0.0))
+    ctrl = StuckGivingWay(people, reached_after=None)
+    core = MoveBaseCore(core_params(planner_patience=1.0, person_wait_timeout=60.0, give_way_after=3.0),
+                        WaitingPlanner(people), ctrl, [], people=people)
+    core.set_goal((5.0, 0.0, 0.0), 0.0, POSE)
+    results = []
+    for i in range(150):
+        now = i * 0.2
+        people.now = now
+        results.append((now, core.cycle(now, (-0.1 * max(0.0, now - 4.0), 0.0, 0.0))))
+    giving = [now for now, r in results if r.text == "giving way to people"]
+    assert min(giving) <= 4.5 and max(giving) >= 29.0
+
+
 def test_waiting_goes_on_only_with_nobody_close_in_front():
     """The way round the person exists (the plan and the controller agree), but the person stands
     close in front: the robot keeps waiting rather than creep past them."""

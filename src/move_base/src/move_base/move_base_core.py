@@ -28,7 +28,9 @@ instead of counting toward the planner's or controller's patience; it goes on (C
 soon as a plan and a valid command exist again and nobody stands close in front (``people.clear``:
 a way round a person close in front would creep past them). After ``give_way_after`` it drives to
 ``people.give_way`` (a place out of the people's way: a person may be waiting for the robot) and
-waits there. After
+waits there; a give-way move that comes no ``GIVE_WAY_PROGRESS`` nearer its place for
+``GIVE_WAY_PATIENCE`` ends there and then (a robot pressed against a door jamb stood 35 s in a
+give-way move that sent it nothing but zero, while the person it waited for walked off and back). After
 ``person_wait_timeout`` without a valid command the usual recoveries run, and the goal is not
 waited for again until the robot moves on.
 """
@@ -43,6 +45,9 @@ from florence_common import angles
 from florence_common.params import Param, ParamTable
 
 log = logging.getLogger(__name__)
+# a give-way move that comes no GIVE_WAY_PROGRESS [m] nearer its place for GIVE_WAY_PATIENCE [s] ends
+GIVE_WAY_PROGRESS = 0.1
+GIVE_WAY_PATIENCE = 5.0
 
 PLANNING = "PLANNING"
 CONTROLLING = "CONTROLLING"
@@ -134,6 +139,8 @@ class _GoalState:
     wait_goal_distance: float | None = None  # [m] from the goal when the robot first waited since the last progress
     waited_out: bool = False  # waited person_wait_timeout since the last progress
     giving_way: tuple | None = None  # the pose the robot drives to, out of the people's way
+    give_way_best: float = math.inf  # [m] the least distance to it so far ...
+    give_way_since: float = 0.0  # [s] ... reached (by GIVE_WAY_PROGRESS or more) then
     gave_way: int = 0  # give-way moves in this wait
     wait_trigger: str = PLANNING_R
     wait_text: str = ""  # why the robot waited, once it waited person_wait_timeout out
@@ -391,9 +398,19 @@ class MoveBaseCore:
             return CycleResult(cmd=ZERO, text=g.reasons[g.trigger])
         if g.giving_way is not None:
             ok, cmd, reason = self.controller.compute_velocity(tuple(pose))
-            if ok and not self.controller.is_goal_reached():
+            left = math.hypot(g.giving_way[0] - pose[0], g.giving_way[1] - pose[1])
+            if left <= g.give_way_best - GIVE_WAY_PROGRESS:
+                g.give_way_best, g.give_way_since = left, now
+            stuck = now - g.give_way_since > GIVE_WAY_PATIENCE
+            if ok and not self.controller.is_goal_reached() and not stuck:
                 return CycleResult(cmd=tuple(cmd), text="giving way to people")
-            log.info("gave way: %s", "arrived" if ok else reason)
+            if not ok:
+                why = reason
+            elif stuck:
+                why = f"no {GIVE_WAY_PROGRESS:.2f} m nearer its place ({left:.2f} m away) in {GIVE_WAY_PATIENCE:.0f} s"
+            else:
+                why = "arrived"
+            log.info("gave way: %s", why)
             g.giving_way = None
         # the goal again, every cycle while standing: go on with the first valid command
         plan = self.planner(tuple(pose), g.goal)
@@ -432,6 +449,7 @@ class MoveBaseCore:
                 if aside.ok:
                     self.controller.set_plan(aside.poses, giving_way=True)
                     g.giving_way = tuple(target)
+                    g.give_way_best, g.give_way_since = math.inf, now
                     log.info("giving way: to (%.2f, %.2f)", target[0], target[1])
                     return CycleResult(cmd=ZERO, text="giving way to people")
         return CycleResult(cmd=ZERO, text=f"waiting: {why}")
