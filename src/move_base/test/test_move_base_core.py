@@ -490,7 +490,7 @@ class StuckGivingWay(GivingWayController):
 
     def set_plan(self, poses, giving_way=False):
         super().set_plan(poses, giving_way)
-        self.plan_times = getattr(self, "plan_times", []) + [(self.people.now, giving_way)]
+        self.plan_times = [*getattr(self, "plan_times", []), (self.people.now, giving_way)]
 
     def is_goal_reached(self):
         return False if self.giving_way and self.giving_way[-1] else super().is_goal_reached()
