@@ -1,7 +1,7 @@
 """move_base benchmark: random goals in the simulated apartment with the whole navigation stack.
 
     source devel/setup.bash && nice -n 10 /usr/bin/python3 bench/nav.py [--pairs 100] [--rtf 2] [--seed 1]
-        [--people shipped|none|FILE] [--sim-maps] [--busy-cores N] [--name NAME]
+        [--people shipped|none|FILE] [--sim-maps] [--busy-cores N] [--rooms A,B,...] [--name NAME]
 
 By default it runs what a user runs: turtlebot_2dnav_control.launch sim:=true, i.e. florence_sim's
 apartment with its two walking residents, the filters, map_server, amcl, the people tracker and
@@ -20,7 +20,10 @@ over florence_sim's keep-out map), the driven length, collisions from the simula
 least ground-truth gap between the robot's body and anything (walls, furniture, people), the least
 distance between the robot's centre and a person's while it drives (and at any time), and where
 the time went (driving, turning on the spot, standing still): florence_eval.nav_metrics.
-``--clearance-of nav.json`` prints the world gaps of a saved run.
+``--clearance-of nav.json`` prints the world gaps of a saved run. ``--rooms bathroom,bedroom`` drives
+to those rooms' hotspots (maps/apartment/rooms.yaml) in turn instead of random goals: with the
+shipped people, the bathroom and the bedroom lie at either end of the corridor Bob walks to and
+fro, and every leg meets him there (head-on, or walking ahead of the robot).
 
 Figures and targets (issue 21, :data:`florence_eval.nav_metrics.TARGETS`): success >= 99 %,
 collisions 0, the centre never nearer than 0.5 m to a person's while driving, body clearance >=
@@ -58,6 +61,8 @@ def default_name(args):
         parts.append("simmaps")
     if args.busy_cores:
         parts.append(f"busy{args.busy_cores}")
+    if args.rooms:
+        parts.append("rooms-" + "-".join(args.rooms.split(",")))
     parts.append(f"seed{args.seed}")
     return "_".join(parts)
 
@@ -85,6 +90,8 @@ def main():
     parser.add_argument("--sim-maps", action="store_true",
                         help="help from florence_sim's ground-truth maps (no robot has them): reported apart")
     parser.add_argument("--busy-cores", type=int, default=0, help="cores kept busy by other processes meanwhile")
+    parser.add_argument("--rooms", help="comma-separated rooms whose hotspots are the goals, in turn (default: "
+                        "random goals)")
     parser.add_argument("--name", help="result file stem (default from the options, e.g. nav_seed1)")
     parser.add_argument("--clearance-of", metavar="JSON", help="only print the body clearances of a saved nav.json")
     args = parser.parse_args()
@@ -97,6 +104,11 @@ def main():
     if args.people not in ("shipped", "none") and not Path(args.people).is_file():
         raise SystemExit(f"--people {args.people}: no such file")
     name = args.name or default_name(args)
+    if args.rooms:
+        try:
+            nav_metrics.room_goals(args.rooms.split(","), 1)
+        except ValueError as exc:
+            raise SystemExit(f"--rooms {args.rooms}: {exc}") from None
 
     from florence_eval.metrics import cpu_seconds, node_pid
     from florence_eval.nav_config import IdealPlanner
@@ -134,7 +146,8 @@ def main():
         pid = node_pid(master.uri, "/move_base")
         scene, body = nav_metrics.load_scene(), nav_metrics.robot_body()
         busy = start_busy(args.busy_cores)
-        goals = nav_metrics.random_goals(ideal.grid, args.pairs * 3, args.clearance, rng)
+        goals = (nav_metrics.room_goals(args.rooms.split(","), args.pairs * 3) if args.rooms else
+                 nav_metrics.random_goals(ideal.grid, args.pairs * 3, args.clearance, rng))
         cpu0, sim0, wall0, load0 = cpu_seconds(pid), session.sim_now(), time.monotonic(), os.getloadavg()[0]
         loads = []
         targets = (nav_metrics.TARGETS_BUSY if args.busy_cores else
@@ -147,7 +160,8 @@ def main():
             result = {
                 **nav_metrics.summarise(legs, targets),
                 "partial": partial,
-                "variant": {"people": args.people, "sim_maps": args.sim_maps, "busy_cores": args.busy_cores},
+                "variant": {"people": args.people, "sim_maps": args.sim_maps, "busy_cores": args.busy_cores,
+                            "rooms": args.rooms},
                 "launch_args": launch_args,
                 "move_base_cpu_fraction": cpu / wall_total, "move_base_cpu_s_per_sim_s": cpu / sim_total,
                 "sim_time_s": sim_total, "wall_time_s": wall_total, "rtf": args.rtf,

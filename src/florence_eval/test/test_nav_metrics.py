@@ -193,3 +193,15 @@ def test_stopwatch_keeps_wall_and_cpu_time_apart():
     assert watch.cpu_ms[1] >= 25.0 and watch.wall_ms[1] >= watch.cpu_ms[1] - 1.0
     assert s["p99_ms"] >= 49.0 and s["cpu_p99_ms"] >= 25.0
     assert Stopwatch().summary() == {"n": 0}
+
+
+def test_room_goals_go_round_the_named_hotspots():
+    goals = nav_metrics.room_goals(["bathroom", "bedroom"], 5)
+    assert goals.shape == (5, 3)
+    assert goals[0] == pytest.approx((6.5, 7.7, math.pi / 2), abs=1e-6)  # maps/apartment/rooms.yaml
+    assert goals[1] == pytest.approx((1.2, 7.6, math.pi / 2), abs=1e-6)
+    assert goals[2] == pytest.approx(goals[0]) and goals[3] == pytest.approx(goals[1])
+    with pytest.raises(ValueError, match="known: bathroom, bedroom, corridor, kitchen, living_room"):
+        nav_metrics.room_goals(["bathroom", "attic"], 2)
+    with pytest.raises(ValueError):
+        nav_metrics.room_goals([], 2)

@@ -50,6 +50,19 @@ def random_goals(grid, count, clearance, rng):
     return np.column_stack([x, y, rng.uniform(-math.pi, math.pi, count)])
 
 
+def room_goals(names, count, rooms_file=None):
+    """``count`` poses (x, y, yaw): the hotspots of the rooms ``names`` (maps/apartment/rooms.yaml
+    by default) in turn, round and round. An unknown room is a ValueError naming the known ones."""
+    import yaml
+
+    rooms = yaml.safe_load(Path(rooms_file or map_file("apartment", "rooms.yaml")).read_text())["rooms"]
+    unknown = [n for n in names if n not in rooms]
+    if unknown or not names:
+        raise ValueError(f"unknown rooms {unknown} (known: {', '.join(sorted(rooms))})")
+    spots = [(rooms[n]["hotspot"]["x"], rooms[n]["hotspot"]["y"], rooms[n]["hotspot"]["phi"]) for n in names]
+    return np.array([spots[k % len(spots)] for k in range(count)], dtype=float).reshape(-1, 3)
+
+
 def turn_time(angle, max_vel=MAX_VEL_TH, acc=ACC_TH):
     """Least time [s] to turn by ``angle`` [rad] (wrapped) from rest to rest within ``max_vel``
     [rad/s] and ``acc`` [rad/s^2]."""
