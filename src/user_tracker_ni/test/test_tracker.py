@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 import pytest
-from user_tracker_ni.tracker import KINECT, LASER, Detection, Tracker, TrackerParams, walked_on
+from user_tracker_ni.tracker import KINECT, LASER, Detection, Tracker, TrackerParams
 
 from user_tracker_ni import reid
 
@@ -373,45 +373,6 @@ def test_a_person_behind_the_robot_is_kept_standing_where_they_were_going():
         tracker.update(t, [laser(x, 0.0, rng, free=False)], LASER)
         t += 0.1
     assert tracker.published() == [track] and not track.standing
-
-
-def test_a_person_walking_up_behind_the_robot_is_placed_where_they_stop_for_it():
-    """The robot turned its back on a person coming toward it: they walk on up to
-    hidden_stop_distance from the laser (where people stop for it), not where they were last seen,
-    so that the robot does not back up into them."""
-    rng = np.random.default_rng(24)
-    tracker = Tracker(TrackerParams(timeout=1.0, hidden_timeout=10.0, hidden_stop_distance=0.5))
-    track, t = _confirmed_walker(tracker, rng)  # from x = 2 toward the laser at the origin, 0.4 m/s
-    seen_at = track.position[0]
-    for _ in range(20):
-        tracker.out_of_view(t, [track], (0.0, 0.0))
-        tracker.update(t, [], LASER)
-        t += 0.1
-    assert track.output(0.3)[0] == pytest.approx(seen_at - 0.4 * 2.0, abs=0.15)  # walking on ...
-    for _ in range(60):
-        tracker.out_of_view(t, [track], (0.0, 0.0))
-        tracker.update(t, [], LASER)
-        t += 0.1
-    x, y = track.output(0.3)
-    assert math.hypot(x, y) == pytest.approx(0.5, abs=0.02) and x > 0.3  # ... up to the robot, and stops
-    assert tracker.published() == [track] and track.velocity == pytest.approx((0.0, 0.0), abs=0.05)
-
-
-def test_where_a_person_out_of_view_stands():
-    # walking away from the laser, or standing: coast_limit on
-    assert walked_on((2.0, 0.0), (0.4, 0.0), 5.0, 0.3, (0.0, 0.0)) == pytest.approx((2.12, 0.0))
-    assert walked_on((2.0, 0.0), (0.0, 0.0), 5.0, 0.3, (0.0, 0.0)) == pytest.approx((2.0, 0.0))
-    # toward it: on to 0.5 m from it, no farther than late allows
-    assert walked_on((2.0, 0.0), (-0.4, 0.0), 10.0, 0.3, (0.0, 0.0)) == pytest.approx((0.5, 0.0))
-    assert walked_on((2.0, 0.0), (-0.4, 0.0), 1.0, 0.3, (0.0, 0.0)) == pytest.approx((1.6, 0.0))
-    # passing 1 m off: to the closest approach
-    assert walked_on((2.0, 1.0), (-0.4, 0.0), 10.0, 0.3, (0.0, 0.0)) == pytest.approx((0.0, 1.0))
-    # passing 0.3 m off: where they come within 0.5 m
-    x, y = walked_on((2.0, 0.3), (-0.4, 0.0), 10.0, 0.3, (0.0, 0.0))
-    assert (x, y) == pytest.approx((0.4, 0.3))
-    # already within it: where they are; no laser position: coast_limit on
-    assert walked_on((0.3, 0.0), (-0.4, 0.0), 10.0, 0.3, (0.0, 0.0)) == pytest.approx((0.3, 0.0))
-    assert walked_on((2.0, 0.0), (-0.4, 0.0), 10.0, 0.3) == pytest.approx((1.88, 0.0))
 
 
 def test_a_person_behind_the_robot_is_dropped_after_hidden_timeout_or_once_in_view():

@@ -151,9 +151,6 @@ TRACKER = ParamTable(
     Param("tracker/hidden_timeout", float, TrackerParams.hidden_timeout,
           "a confirmed track out of the laser's view (behind the robot) is kept this long without an update, "
           "standing where it was last going (0: no longer than timeout)", unit="s", ge=0),
-    Param("tracker/hidden_stop_distance", float, TrackerParams.hidden_stop_distance,
-          "a person walking up to the robot out of the laser's view is placed walking on to this distance from "
-          "the laser (people stop for a robot in their way)", unit="m", ge=0),
     Param("tracker/tentative_timeout", float, TrackerParams.tentative_timeout, "the same for a tentative track",
           unit="s", gt=0),
     Param("tracker/id_wait", float, TrackerParams.id_wait,

@@ -35,11 +35,8 @@ Life of a track:
 - A track no sensor has updated for ``timeout`` (confirmed) or ``tentative_timeout``
   (tentative) is dropped. Only time in a sensor's field of view counts for a confirmed track: one
   out of the laser's bearings (behind the robot: the caller says which, :meth:`Tracker.out_of_view`)
-  is kept up to ``hidden_timeout`` without an update. Past ``coast_limit`` it stands where it was
-  last going (the position it is published at), except that one who was walking toward the robot
-  (the caller gives the laser's position) walks on up to ``hidden_stop_distance`` from it (people
-  stop for a robot in their way), or to their closest approach: the robot that turned its back
-  on a person coming along the corridor must not back up into them. The robot that
+  is kept up to ``hidden_timeout`` without an update, and once out of view for longer than
+  ``timeout`` it stands where it was last going (the position it is published at). The robot that
   turns its back on a person waiting for it does not forget them (a person in a corridor, whom
   the robot forgot each time it turned away, made its plan flip between the corridor and a
   detour at every turn); once in view again, it is dropped after ``timeout`` without an update.
@@ -133,7 +130,6 @@ class TrackerParams:
     coast_limit: float = 0.3  # [s] a published position extrapolates at most this long past the last update
     timeout: float = 1.0  # [s] a confirmed track no sensor updated for this long is dropped ...
     hidden_timeout: float = 10.0  # [s] ... but one out of the laser's view is kept this long (0: no longer)
-    hidden_stop_distance: float = 0.5  # [m] one walking up to the robot out of view is placed no nearer the laser
     tentative_timeout: float = 0.6  # [s] the same for a tentative track
     id_wait: float = 1.0  # [s] a confirmed track waits this long for a signature before a new id ...
     id_wait_max: float = 2.0  # [s] ... out of the Kinect's view; in front of it, this long at most
@@ -153,9 +149,8 @@ class TrackerParams:
                      "process_noise", "unseen_timeout", "coast_limit"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
-        if not self.hidden_timeout >= 0 or not self.hidden_stop_distance >= 0:
-            raise ValueError(f"need hidden_timeout >= 0 and hidden_stop_distance >= 0, got {self.hidden_timeout}, "
-                             f"{self.hidden_stop_distance}")
+        if not self.hidden_timeout >= 0:
+            raise ValueError(f"hidden_timeout must be >= 0, got {self.hidden_timeout}")
         if not 1 <= self.confirm_hits <= self.confirm_window or self.max_tracks < 1 or not 0 <= self.id_wait \
                 <= self.id_wait_max:
             raise ValueError("need 1 <= confirm_hits <= confirm_window, max_tracks >= 1, 0 <= id_wait <= id_wait_max")
@@ -184,7 +179,7 @@ class Track:
     last_kinect: float | None = None  # [s]
     unseen_since: float | None = None  # [s] in the Kinect's clear view, not detected, since
     hidden_at: float | None = None  # [s] the latest reading at which it was out of the laser's view
-    standing: bool = False  # out of view past ``coast_limit``: held still where it was last going (published there)
+    standing: bool = False  # out of view past ``timeout``: held still where it was last going
     last_laser: float | None = None  # [s]
     kinect_hits: int = 0
     laser_hits: int = 0
@@ -219,7 +214,7 @@ class Track:
         extrapolation past the last update (a track coasting on an old velocity would walk through
         walls)."""
         late = self.filter.t - self.last_update
-        if late <= coast_limit or self.updated is None or self.standing:
+        if late <= coast_limit or self.updated is None:
             return self.position
         (x, y), (vx, vy) = self.updated
         return x + vx * coast_limit, y + vy * coast_limit
@@ -238,25 +233,6 @@ class Track:
         if float(np.hypot(*self.facing_sum)) < params.facing_agreement * self.facing_count:
             return None
         return math.atan2(self.facing_sum[1], self.facing_sum[0])
-
-
-def walked_on(position, velocity, late, coast_limit, sensor_xy=None, stop_distance=0.5):
-    """Where a person last seen at ``position`` walking at ``velocity`` (both (x, y), m and m/s)
-    stands ``late`` [s] later, out of the sensors' view: ``coast_limit`` [s] on; but one walking
-    toward ``sensor_xy`` walks on (up to ``late``) until ``stop_distance`` [m] from it, or to
-    their closest approach if they pass farther off (people stop for a robot in their way)."""
-    (x, y), (vx, vy) = position, velocity
-    s = min(late, coast_limit)
-    speed2 = vx * vx + vy * vy
-    if sensor_xy is not None and speed2 > 1e-6:
-        rx, ry = sensor_xy[0] - x, sensor_xy[1] - y
-        closest = (rx * vx + ry * vy) / speed2  # [s] to the closest approach
-        if closest > 0.0:  # coming toward the robot
-            miss2 = max(rx * rx + ry * ry - closest * closest * speed2, 0.0)  # closest distance, squared
-            if miss2 < stop_distance * stop_distance:
-                closest -= math.sqrt((stop_distance * stop_distance - miss2) / speed2)
-            s = min(late, max(closest, 0.0))
-    return x + vx * s, y + vy * s
 
 
 class Tracker:
@@ -339,11 +315,10 @@ class Tracker:
                 kept.append(track)
         self.tracks = kept
 
-    def out_of_view(self, t, tracks, sensor_xy=None):
+    def out_of_view(self, t, tracks):
         """At the reading of time ``t``: ``tracks`` (of self.tracks) lay outside the laser's field
-        of view (its bearings; the laser at ``sensor_xy``): their time without an update does not
-        count. A confirmed one out of view for more than ``coast_limit`` since its last update
-        stands still where it was going (:func:`walked_on`)."""
+        of view (its bearings): their time without an update does not count. A confirmed one out
+        of view for more than ``timeout`` since its last update stands still where it is published."""
         p = self.params
         if p.hidden_timeout <= 0.0:
             return
@@ -351,11 +326,9 @@ class Tracker:
             if not track.confirmed:
                 continue
             track.hidden_at = t
-            late = t - track.last_update
-            if late > p.coast_limit and track.updated is not None:
+            if not track.standing and t - track.last_update > p.timeout:
                 track.filter.predict(t)
-                track.filter.stand(*walked_on(*track.updated, late, p.coast_limit, sensor_xy,
-                                              p.hidden_stop_distance))
+                track.filter.stand(*track.output(p.coast_limit))
                 track.standing = True
 
     def published(self):
