@@ -15,6 +15,7 @@ from move_base.people_layer import (
     ProxemicLayer,
     RecentPoints,
     approaches,
+    backs_toward,
     blocked_plan_reason,
     braking_positions,
     give_way_cells,
@@ -341,3 +342,19 @@ def test_marks_out_of_view_keep_a_wait_going_but_start_none():
     assert blocked_plan_reason("", True) == ""  # a stale mark: the recoveries clear it at once
     why = blocked_plan_reason("", True, waiting=True)  # turned away from the people waited for
     assert "out of their view now" in why and "the map has a way" in why
+
+
+def test_backing_up_toward_a_person_behind_is_told():
+    heading = 0.3
+    start = np.array([1.0, 2.0, heading])
+    u = np.array([math.cos(heading), math.sin(heading)])
+    def traj(d):  # straight, d [m] along the heading
+        end = start[:2] + d * u
+        return np.array([start, [*end, heading]])
+    points = np.stack([traj(-0.1), traj(0.2), traj(0.0)])
+    behind = [*(start[:2] - 1.0 * u), 0.0, 0.0]
+    assert backs_toward(points, [behind], 1.5).tolist() == [True, False, False]
+    assert backs_toward(points, [behind], 0.8).tolist() == [False, False, False]  # farther than the distance
+    ahead = [*(start[:2] + 1.0 * u), 0.0, 0.0]
+    assert backs_toward(points, [ahead], 1.5).tolist() == [False, False, False]
+    assert backs_toward(points, np.zeros((0, 4)), 1.5).tolist() == [False, False, False]

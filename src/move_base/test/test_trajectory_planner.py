@@ -324,6 +324,20 @@ def test_no_escape_into_what_is_behind_the_robot():
     assert cost < 0 and cmd == (0.0, 0.0, 0.0)
 
 
+def test_no_escape_toward_a_person_behind_the_robot():
+    """Florence: boxed in at the nose as above, a tracked person 1 m behind the robot (out of the
+    sensors' view, where they may have walked up since): no backing up; 2 m behind, or in front
+    beyond min_person_distance, it backs up as before."""
+    cm = Costmap2D(100, 100, 0.1)
+    cm.costs[45:56, 53] = LETHAL_OBSTACLE
+    cm.costs[45:56, 52] = LETHAL_OBSTACLE
+    for person, backs in (((4.0, 5.0), False), ((3.0, 5.0), True), ((6.2, 6.0), True)):
+        tp = TrajectoryPlanner(seed_params(min_person_distance=0.6), FOOTPRINT)
+        tp.people = np.array([[*person, 0.0, 0.0]])
+        cmd, cost, _ = tp.find_best_command(cm, 5.0, 5.0, 0.0, 0.0, 0.0, 0.0, straight_plan(5.0, 8.0, 5.0))
+        assert (cmd == (-0.1, 0.0, 0.0)) is backs, (person, cmd, cost)
+
+
 def test_escape_judges_its_end_by_the_body_not_the_padding():
     """Florence: the launch pads the footprint by 6 cm. Boxed in at the nose, with a jamb's
     corner beside the tail that the padding would touch after backing up but the robot's own

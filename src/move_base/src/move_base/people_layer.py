@@ -241,6 +241,25 @@ def near_walks(points, people, radius, back):
     return out
 
 
+def backs_toward(points, people, distance):
+    """Which trajectories back up (their end lies behind their start along the start's heading)
+    while one of ``people`` (P, 4) stands within ``distance`` [m] of the start, behind it (in the
+    half-plane behind the robot): the sensors do not see there, and a person the robot turned its
+    back on may have walked up to it since. ``points`` (K, T, >= 3) [m, m, rad]. Returns (K,) bool."""
+    points = np.asarray(points, dtype=float)
+    people = np.asarray(people, dtype=float).reshape(-1, 4)
+    out = np.zeros(points.shape[0], dtype=bool)
+    if not len(people) or points.size == 0:
+        return out
+    x0, y0, th = points[0, 0, 0], points[0, 0, 1], points[0, 0, 2]
+    hx, hy = math.cos(th), math.sin(th)
+    rx, ry = people[:, 0] - x0, people[:, 1] - y0
+    if not np.any((np.hypot(rx, ry) <= distance) & (rx * hx + ry * hy < 0.0)):
+        return out
+    ends = points[:, -1, :2]
+    return (ends[:, 0] - points[:, 0, 0]) * hx + (ends[:, 1] - points[:, 0, 1]) * hy < -0.01
+
+
 def braking_positions(times, start, speed, acc):
     """Positions (x, y) [m] at ``times`` [s] (any shape) of a robot braking from ``speed`` [m/s]
     at ``acc`` [m/s^2] straight along its heading from ``start`` = (x, y, yaw): what the robot

@@ -593,6 +593,10 @@ class Trajectory:
 
 
 PEOPLE_COST = -3.0  # a trajectory refused for min_person_distance (Florence; the escape does not override it)
+# [m] with min_person_distance set, no backing up (the escape included) while a tracked person stands this near
+# behind the robot (Florence): the sensors do not see behind it, and in a corridor bench the robot that had
+# turned its back on a person walking up to it backed into them
+REAR_PERSON_DISTANCE = 1.5
 
 
 class TrajectoryPlanner:
@@ -793,14 +797,17 @@ class TrajectoryPlanner:
         self.refused_for_people = 0
         self._cost_without_people = cost
         if p.min_person_distance > 0.0 and (len(self.people) or len(self.still_people)):
-            from move_base.people_layer import approaches
+            from move_base.people_layer import approaches, backs_toward
 
             index = np.arange(points.shape[1])[None, :]
             times = np.where(index < steps[:, None], index * np.asarray(dt, float).reshape(-1, 1), np.inf)
             near = approaches(points, times, self.people, p.min_person_distance, brake=self._brake,
                               still=self.still_people)
-            self.refused_for_people = int(np.count_nonzero(near & (cost >= 0.0)))
-            cost = np.where(near & (cost >= 0.0), PEOPLE_COST, cost)
+            # nor backing up toward a person behind (out of the sensors' view), the escape included
+            # (its collision cost -1 would turn into a licence to back up)
+            back = backs_toward(points, self.people, REAR_PERSON_DISTANCE) & ((cost >= 0.0) | (cost == -1.0))
+            self.refused_for_people = int(np.count_nonzero((near | back) & (cost >= 0.0)))
+            cost = np.where((near & (cost >= 0.0)) | back, PEOPLE_COST, cost)
         return cost, n_valid
 
     def _out_of_padding(self, costmap, points, steps, padded, body):
