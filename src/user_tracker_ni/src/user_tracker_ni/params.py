@@ -150,7 +150,8 @@ TRACKER = ParamTable(
           "a confirmed track no sensor saw for this long (in the laser's view) is dropped", unit="s", gt=0),
     Param("tracker/hidden_timeout", float, TrackerParams.hidden_timeout,
           "a confirmed track out of the laser's view (behind the robot) is kept this long without an update, "
-          "standing where it was last going (0: no longer than timeout)", unit="s", ge=0),
+          "standing where it was last going (0: off, no longer than timeout; 10 s locked the robot in place with a "
+          "person held behind it, see the README)", unit="s", ge=0),
     Param("tracker/tentative_timeout", float, TrackerParams.tentative_timeout, "the same for a tentative track",
           unit="s", gt=0),
     Param("tracker/id_wait", float, TrackerParams.id_wait,

@@ -35,7 +35,7 @@ Life of a track:
 - A track no sensor has updated for ``timeout`` (confirmed) or ``tentative_timeout``
   (tentative) is dropped. Only time in a sensor's field of view counts for a confirmed track: one
   out of the laser's bearings (behind the robot: the caller says which, :meth:`Tracker.out_of_view`)
-  is kept up to ``hidden_timeout`` without an update, and once out of view for longer than
+  is kept up to ``hidden_timeout`` (off by default) without an update, and once out of view for longer than
   ``timeout`` it stands where it was last going (the position it is published at). The robot that
   turns its back on a person waiting for it does not forget them (a person in a corridor, whom
   the robot forgot each time it turned away, made its plan flip between the corridor and a
@@ -129,7 +129,7 @@ class TrackerParams:
     unseen_timeout: float = 1.0  # [s] a track in the Kinect's clear view it did not detect for this long is dropped
     coast_limit: float = 0.3  # [s] a published position extrapolates at most this long past the last update
     timeout: float = 1.0  # [s] a confirmed track no sensor updated for this long is dropped ...
-    hidden_timeout: float = 10.0  # [s] ... but one out of the laser's view is kept this long (0: no longer)
+    hidden_timeout: float = 0.0  # [s] ... but one out of the laser's view is kept this long (0: off, see the README)
     tentative_timeout: float = 0.6  # [s] the same for a tentative track
     id_wait: float = 1.0  # [s] a confirmed track waits this long for a signature before a new id ...
     id_wait_max: float = 2.0  # [s] ... out of the Kinect's view; in front of it, this long at most
