@@ -468,12 +468,18 @@ def test_waiting_ends_in_the_recoveries_after_person_wait_timeout():
     assert t_end < 20.0
 
 
-def test_giving_way_after_give_way_after():
-    people = FakePeople(lambda now: 1.0 <= now < 15.0, aside=(-1.0, 1.0, 2.0))
-    ctrl = GivingWayController(people, reached_after=None)
+def giving_way_core(people, ctrl):
+    """A core with a goal 5 m ahead that waits for ``people`` and gives way after 3 s."""
     core = MoveBaseCore(core_params(planner_patience=1.0, person_wait_timeout=60.0, give_way_after=3.0),
                         WaitingPlanner(people), ctrl, [], people=people)
     core.set_goal((5.0, 0.0, 0.0), 0.0, POSE)
+    return core
+
+
+def test_giving_way_after_give_way_after():
+    people = FakePeople(lambda now: 1.0 <= now < 15.0, aside=(-1.0, 1.0, 2.0))
+    ctrl = GivingWayController(people, reached_after=None)
+    core = giving_way_core(people, ctrl)
     results = run_people(core, people, n=90)[3]
     assert people.give_way_asked >= 1
     assert True in ctrl.giving_way  # the controller got the plan out of the way as such
@@ -508,9 +514,7 @@ def test_a_give_way_move_that_gets_nowhere_ends():
 
     people = FakePeople(lambda now: 1.0 <= now < 12.0, aside=(-1.0, 1.0, 2.0))
     ctrl = StuckGivingWay(people, reached_after=None)
-    core = MoveBaseCore(core_params(planner_patience=1.0, person_wait_timeout=60.0, give_way_after=3.0),
-                        WaitingPlanner(people), ctrl, [], people=people)
-    core.set_goal((5.0, 0.0, 0.0), 0.0, POSE)
+    core = giving_way_core(people, ctrl)
     results = run_people(core, people, n=150)[3]
     giving = [now for now, state, r in results if r.text == "giving way to people"]
     assert 4.0 <= min(giving) <= 4.5  # 3 s into the wait
@@ -526,9 +530,7 @@ def test_a_give_way_move_that_gets_nowhere_ends():
     # a move that makes progress is not cut short: the robot 0.1 m nearer every second
     people = FakePeople(lambda now: 1.0 <= now < 40.0, aside=(-3.0, 0.0, 0.0))
     ctrl = StuckGivingWay(people, reached_after=None)
-    core = MoveBaseCore(core_params(planner_patience=1.0, person_wait_timeout=60.0, give_way_after=3.0),
-                        WaitingPlanner(people), ctrl, [], people=people)
-    core.set_goal((5.0, 0.0, 0.0), 0.0, POSE)
+    core = giving_way_core(people, ctrl)
     results = []
     for i in range(150):
         now = i * 0.2
