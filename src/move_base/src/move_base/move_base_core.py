@@ -29,8 +29,9 @@ soon as a plan and a valid command exist again and nobody stands close in front 
 a way round a person close in front would creep past them). After ``give_way_after`` it drives to
 ``people.give_way`` (a place out of the people's way: a person may be waiting for the robot) and
 waits there; a give-way move that comes no ``GIVE_WAY_PROGRESS`` nearer its place for
-``GIVE_WAY_PATIENCE`` ends there and then (a robot pressed against a door jamb stood 35 s in a
-give-way move that sent it nothing but zero, while the person it waited for walked off and back). After
+``GIVE_WAY_PATIENCE`` ends there and then (beside a door jamb a robot stood 35 s in a give-way
+move, its controller's commands valid but the robot not moving, while the person it waited for
+walked off and back). After
 ``person_wait_timeout`` without a valid command the usual recoveries run, and the goal is not
 waited for again until the robot moves on.
 """

@@ -157,12 +157,13 @@ class Pipeline:
             return []
         xy, valid = laser_legs.scan_points(ranges, angle_min, angle_increment, range_min, range_max, pose)
         sensor = pose[:2, 3]
+        angle_max = angle_min + angle_increment * (len(ranges) - 1)
         # people behind the robot: the laser cannot see them, so not seeing them says nothing
+        # (with hidden_timeout set; off by default)
         confirmed = [tr for tr in self.tracker.tracks if tr.confirmed]
-        if confirmed:
+        if confirmed and self.tracker.params.hidden_timeout > 0.0:
             coast = self.tracker.params.coast_limit
-            seen = laser_legs.in_view([tr.output(coast) for tr in confirmed], angle_min,
-                                      angle_min + angle_increment * (len(ranges) - 1), pose)
+            seen = laser_legs.in_view([tr.output(coast) for tr in confirmed], angle_min, angle_max, pose)
             self.tracker.out_of_view(t, [tr for tr, s in zip(confirmed, seen, strict=True) if not s])
         legs = laser_legs.find_legs(xy, valid, sensor, self.p.legs)
         legs = legs[~self._on_structure(legs, fixed_in_map)]  # a wall's end is no leg
@@ -173,7 +174,6 @@ class Pipeline:
         free = [all(leg_free[k] for k in m) for m in members]
         lone = np.array([m[0] for m in members if len(m) == 1], dtype=int)
         # a lone leg whose partner something nearer may hide, or the end of the laser's view
-        angle_max = angle_min + angle_increment * (len(ranges) - 1)
         hidden = laser_legs.partner_hidden(xy, valid, sensor, legs[lone], self.p.legs) | \
             laser_legs.partner_beyond_edge(legs[lone], angle_min, angle_max, pose, self.p.legs)
         hidden = dict(zip(lone.tolist(), hidden.tolist(), strict=True))
