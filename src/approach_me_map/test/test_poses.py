@@ -5,7 +5,16 @@ import math
 
 import numpy as np
 import pytest
-from approach_me_map.poses import Align, AlignParams, ApproachParams, ObstacleGrid, rank
+from approach_me_map.poses import (
+    Align,
+    AlignParams,
+    ApproachParams,
+    ObstacleGrid,
+    behind,
+    nearest_track,
+    rank,
+    swept_near,
+)
 
 from florence_common import angles
 
@@ -38,6 +47,71 @@ def test_open_space_front_left_or_front_right_on_the_robots_side():
     order = [round(abs(math.degrees(c.offset))) for c in ranked]
     assert order.index(0) < order.index(90) < order.index(180)
     assert all(abs(math.degrees(c.offset)) > 90 for c in ranked[-9:])
+
+
+@pytest.mark.parametrize("facing_deg", [90.0, 0.0, 135.0])
+def test_a_user_facing_away_from_the_robot_is_approached_from_her_front(facing_deg):
+    """The robot south of the user, who faces north (away), east or north-west: the best pose is
+    front-left or front-right of the way she faces, clear of her knees (45 deg: at 30 deg the robot
+    would stand 0.27 m from them), and no pose behind her comes before every pose in front of her."""
+    user, robot, facing = (4.0, 4.0), (4.0, 1.0), math.radians(facing_deg)
+    ranked = rank(user, robot, P, room(), facing=facing)
+    best = ranked[0]
+    assert abs(angles.diff(best.angle, facing)) == pytest.approx(math.radians(45.0))
+    assert abs(math.degrees(best.offset)) == pytest.approx(45.0)
+    knees = (user[0] + P.knee_reach * math.cos(facing), user[1] + P.knee_reach * math.sin(facing))
+    assert min(math.hypot(c.x - knees[0], c.y - knees[1]) for c in ranked) >= P.knee_clearance
+    behind = [i for i, c in enumerate(ranked) if abs(angles.diff(c.angle, facing)) > math.pi / 2 + 1e-9]
+    front = [i for i, c in enumerate(ranked) if abs(angles.diff(c.angle, facing)) <= math.pi / 2 + 1e-9]
+    assert max(front) < min(behind)
+    # unknown facing (None or NaN): the robot's side is the front, as without it
+    for unknown in (None, math.nan):
+        assert rank(user, robot, P, room(), facing=unknown)[0].y < user[1]
+
+
+def test_a_user_facing_a_wall_is_approached_from_her_side_not_from_behind():
+    """Seated 0.4 m from a wall she faces (north), the robot south of her: nothing fits in front, so
+    her sides before her back, although her back is the robot's side."""
+    user, robot = (4.0, 4.0), (4.0, 1.0)
+    ranked = rank(user, robot, P, room(walls=[(0.0, 4.4, 8.0, 4.6)]), facing=math.pi / 2)
+    assert ranked
+    assert abs(angles.diff(ranked[0].angle, math.pi / 2)) <= math.pi / 2 + 1e-9
+    assert ranked[0].y > user[1] - 0.2  # beside her, not south of her
+
+
+def test_a_path_round_the_user_sweeps_the_angle_it_goes_round_her_within_the_radius():
+    user = (0.0, 0.0)
+    # from the east straight in to 0.5 m east of her: radial, no sweep
+    radial = [(x, 0.0) for x in np.linspace(3.0, 0.5, 26)]
+    assert swept_near(radial, user, 0.6) == pytest.approx(0.0)
+    # from behind (east) round her south side at 0.55 m to her front (west): 180 deg within 0.6 m
+    a = np.linspace(0.0, -math.pi, 40)
+    arc = list(zip(0.55 * np.cos(a), 0.55 * np.sin(a), strict=True))
+    round_her = [(x, 0.0) for x in np.linspace(3.0, 0.6, 10)] + arc
+    assert math.degrees(swept_near(round_her, user, 0.6)) == pytest.approx(180.0, abs=1.0)
+    assert swept_near(round_her, user, 0.5) == 0.0  # never within 0.5 m
+    # across the +-180 deg seam: unwrapped, not 360 deg
+    b = np.linspace(math.radians(150), math.radians(210), 20)
+    seam = list(zip(0.55 * np.cos(b), 0.55 * np.sin(b), strict=True))
+    assert math.degrees(swept_near(seam, user, 0.6)) == pytest.approx(60.0)
+    assert swept_near([], user, 0.6) == 0.0
+
+
+def test_behind_is_more_than_the_side_limit_from_her_facing():
+    user, limit = (1.0, 1.0), P.side_limit
+    assert behind(user, (0.5, 1.0), 0.0, limit)  # she faces east, the robot west of her
+    assert behind(user, (0.9, 1.5), 0.0, limit)  # 101 deg: behind her ...
+    assert not behind(user, (0.9, 1.5), 0.0, math.radians(110))  # ... not with a limit of 110 deg
+    assert not behind(user, (1.5, 1.2), 0.0, limit)
+    assert not behind(user, (1.0, 1.5), 0.0, limit)  # at her side: not behind
+    assert not behind(user, (0.5, 1.0), None, limit) and not behind(user, (0.5, 1.0), math.nan, limit)
+
+
+def test_the_user_s_track_is_the_nearest_within_the_gate():
+    xy = [[0.0, 0.0], [1.0, 1.0], [math.nan, math.nan]]
+    assert nearest_track((0.9, 1.2), xy, 0.6) == 1
+    assert nearest_track((3.0, 3.0), xy, 0.6) is None
+    assert nearest_track((0.0, 0.0), np.empty((0, 2)), 0.6) is None
 
 
 def test_a_wall_beside_the_user_leaves_the_other_side():

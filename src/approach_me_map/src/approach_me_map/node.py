@@ -2,8 +2,9 @@
 Table 13).
 
 On ``detected_user`` with command true, the node ranks poses at ``~safe_distance`` around the
-user (approach_me_map.poses: the robot's side, front-left / front-right before head-on, never
-the far side while another is free), asks move_base's make_plan for a path to the best ones,
+user (approach_me_map.poses: in front of the user, front-left / front-right before head-on, never
+behind her while another pose is free; the front is the way the tracker says she faces, the
+robot's side while it does not say), asks move_base's make_plan for a path to the best ones,
 sends the first with a path as a move_base goal, and after move_base stops turns to face the user
 and drives straight to ``~safe_distance`` (the last half metre, closed on odometry: move_base's
 0.25 m goal tolerance is too coarse). A failed trial moves on to another pose: at most ``~trials``
@@ -15,7 +16,8 @@ ROS Parameters: PARAMS below (rendered in the README).
 ROS Subscribers:
     detected_user (detect_users/DetectedUser): command true: approach the user at (x, y) in
         ~map_frame; command false: stop.
-    filtered_tracked_users (user_tracker_ni/TrackedUsers): the user's position while approaching.
+    filtered_tracked_users (user_tracker_ni/TrackedUsers): the user's position while approaching
+        and which way she faces (``facings``).
     map (nav_msgs/OccupancyGrid): walls and furniture, to rank the poses.
     scan (sensor_msgs/LaserScan): what is ahead of the robot in the last half metre.
     odom (nav_msgs/Odometry): the robot's speed at rest or not.
@@ -48,8 +50,19 @@ from nav_msgs.srv import GetPlan
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import String
 
-from approach_me_map.poses import Align, AlignParams, ApproachParams, ObstacleGrid, Stall, rank
+from approach_me_map.poses import (
+    Align,
+    AlignParams,
+    ApproachParams,
+    ObstacleGrid,
+    Stall,
+    behind,
+    nearest_track,
+    rank,
+    swept_near,
+)
 from detect_users.msg import DetectedUser
+from florence_common import angles
 from florence_common import pose as pose2d
 from florence_common.params import FRAME, Param, ParamTable
 from florence_common_ros import convert
@@ -69,7 +82,13 @@ PARAMS = ParamTable(
     Param("candidate_step", float, math.degrees(_A.step), "angle between candidate poses around the user",
           unit="deg", gt=0, le=90),
     Param("preferred_offset", float, math.degrees(_A.preferred_offset), "front-left / front-right: the angle "
-          "at the user from the line to the robot that costs least", unit="deg", ge=0, le=60),
+          "at the user from the way she faces that costs least", unit="deg", ge=0, le=60),
+    Param("use_facing", bool, True, "the front is the way the tracker says the user faces (seated: her shins; "
+          "walking: her way); false, or while it does not say: the robot's side"),
+    Param("pass_distance", float, 0.6, "a make_plan path that goes round the user nearer than this (move_base's "
+          "min_person_distance) ...", unit="m", ge=0),
+    Param("pass_sweep", float, 45.0, "... by more than this angle is taken only when no other pose has a path "
+          "(even one behind her: move_base stalls on the way round her)", unit="deg", ge=0),
     Param("min_clearance", float, _A.min_clearance, "a pose this near walls or furniture of the map is not "
           "used", unit="m", ge=0),
     Param("goal_timeout", float, 120.0, "longest move_base trial", unit="s", gt=0),
@@ -122,6 +141,8 @@ class ApproachMeMapNode:
         self.grid = None
         self.request = None  # (x, y) of the newest detection not yet taken
         self.user = None  # (x, y) [m, map] of the user being approached
+        self.facing = None  # [rad, map] which way she faces (the tracker's latest word), None: unknown
+        self.tracks = (np.empty((0, 2)), np.empty(0))  # the latest tracked users: xy [m, map], facings [rad, map]
         self.scan = None  # (stamp [s], points [N, 2] in base_frame)
         self.speed = (0.0, 0.0, -math.inf)  # v [m/s], w [rad/s], stamp [s]
         self.running = False
@@ -183,9 +204,7 @@ class ApproachMeMapNode:
                 self.speed = (v, w, msg.header.stamp.to_sec())
 
     def _on_users(self, msg):
-        with self.lock:
-            user = self.user if self.running else None
-        if user is None or not msg.user_ids or len(msg.positions) != len(msg.user_ids) or not msg.frame_id:
+        if not msg.user_ids or len(msg.positions) != len(msg.user_ids) or not msg.frame_id:
             return
         # the latest map -> frame_id (amcl's map -> odom changes slowly; a lookup at the stamp fails
         # whenever amcl's transform comes late)
@@ -195,15 +214,22 @@ class ApproachMeMapNode:
             return
         pts = np.array([[q.x, q.y, 0.0, 1.0] for q in msg.positions])
         xy = (m @ pts.T).T[:, :2]
-        xy = xy[np.all(np.isfinite(xy), axis=1)]
-        if not len(xy):
+        facings = np.full(len(xy), np.nan)
+        if self.p.use_facing and len(msg.facings) == len(xy):
+            facings = np.asarray(msg.facings, dtype=float) + math.atan2(m[1, 0], m[0, 0])  # NaN stays NaN
+        with self.lock:
+            self.tracks = (xy, facings)
+            user = self.user if self.running else None
+        if user is None:
             return
-        d = np.hypot(xy[:, 0] - user[0], xy[:, 1] - user[1])
-        k = int(np.argmin(d))
-        if d[k] <= self.p.track_gate:
-            with self.lock:
-                if self.running:
-                    self.user = (float(xy[k, 0]), float(xy[k, 1]))
+        k = nearest_track(user, xy, self.p.track_gate)
+        if k is None:
+            return
+        with self.lock:
+            if self.running:
+                self.user = (float(xy[k, 0]), float(xy[k, 1]))
+                if math.isfinite(facings[k]):
+                    self.facing = float(angles.wrap(facings[k]))
 
     def _on_detected(self, msg):
         if not msg.command:
@@ -236,6 +262,9 @@ class ApproachMeMapNode:
             self.cancel.clear()
             with self.lock:
                 self.user, self.running = request, True
+                xy, facings = self.tracks
+                k = nearest_track(request, xy, self.p.track_gate)
+                self.facing = float(angles.wrap(facings[k])) if k is not None and math.isfinite(facings[k]) else None
             outcome, why = "ABORTED", ""
             try:
                 outcome, why = self._approach()
@@ -282,11 +311,11 @@ class ApproachMeMapNode:
             if robot is None:
                 return "ABORTED", f"no robot pose: {why}"
             with self.lock:
-                user, grid = self.user, self.grid
-            candidates = rank(user, robot[:2], self.params, grid, exclude=tried)
+                user, grid, facing = self.user, self.grid, self.facing
+            candidates = rank(user, robot[:2], self.params, grid, exclude=tried, facing=facing)
             if trial == 1:
                 self._publish_candidates(candidates)
-            goal = self._plannable(candidates, robot, beat)
+            goal = self._plannable(candidates, robot, beat, user)
             for extra in (0.1, 0.2):
                 if goal is not None:
                     break
@@ -294,7 +323,8 @@ class ApproachMeMapNode:
                 # radius (0.47 m) from the tracked centre of the very user approached, and that track is
                 # a few cm off (or doubled): a little farther out, the last half metre drives the rest
                 wider = dataclasses.replace(self.params, safe_distance=self.params.safe_distance + extra)
-                goal = self._plannable(rank(user, robot[:2], wider, grid, exclude=tried), robot, beat)
+                goal = self._plannable(rank(user, robot[:2], wider, grid, exclude=tried, facing=facing), robot, beat,
+                                       user)
                 if goal is not None:
                     notes.append(f"trial {trial}: no pose {self.params.safe_distance:.2f} m from the user had a path, "
                                  f"move_base sent {wider.safe_distance:.2f} m out")
@@ -304,12 +334,17 @@ class ApproachMeMapNode:
                 break
             tried.append(goal.angle)
             ok, why = self._drive(goal, user, beat)
-            notes.append(f"trial {trial} at {math.degrees(goal.offset):+.0f} deg: {why}")
+            front = "the robot's side" if facing is None else f"her facing {math.degrees(facing):.0f} deg"
+            notes.append(f"trial {trial} at {math.degrees(goal.offset):+.0f} deg from {front}: {why}")
             if ok:
                 return "SUCCEEDED", "; ".join(notes)
         return "ABORTED", "; ".join(notes) or "no trial"
 
-    def _plannable(self, candidates, robot, beat):
+    def _plannable(self, candidates, robot, beat, user):
+        """The first candidate with a plan that does not go round the user (module poses), else the first
+        with a plan, else None."""
+        fallback, seen = None, []
+        chosen = None
         for c in candidates[:self.p.plan_checks]:
             self._check()
             self._heartbeat(beat)
@@ -321,9 +356,22 @@ class ApproachMeMapNode:
             except (rospy.ROSException, rospy.ServiceException) as exc:
                 rospy.logwarn_throttle(5.0, LOG + "make_plan failed: %s", exc)
                 continue
-            if plan.poses:
-                return c
-        return None
+            if not plan.poses:
+                seen.append(f"{math.degrees(c.offset):+.0f} deg: no path")
+                continue
+            path = [(q.pose.position.x, q.pose.position.y) for q in plan.poses]
+            sweep = swept_near(path, user, self.p.pass_distance)
+            if sweep <= math.radians(self.p.pass_sweep):
+                chosen = c
+                break
+            seen.append(f"{math.degrees(c.offset):+.0f} deg: the way goes {math.degrees(sweep):.0f} deg round her")
+            if fallback is None:
+                fallback = c
+        chosen = chosen or fallback
+        if seen:
+            rospy.loginfo(LOG + "poses asked of make_plan before the one taken (%s): %s",
+                          "none" if chosen is None else f"{math.degrees(chosen.offset):+.0f} deg", "; ".join(seen))
+        return chosen
 
     def _drive(self, goal, user, beat):
         """One trial: move_base to ``goal``, then the last half metre. (ok, what happened)."""
@@ -377,8 +425,13 @@ class ApproachMeMapNode:
             now_user = self.user
         near = robot is not None and math.hypot(robot[0] - now_user[0], robot[1] - now_user[1]) \
             < p.safe_distance + 0.6
-        if state != GoalStatus.SUCCEEDED and not near and not stalled:
-            return False, f"move_base {state_name(state)}: {text}"
+        if state != GoalStatus.SUCCEEDED and not stalled:
+            if not near:
+                return False, f"move_base {state_name(state)}: {text}"
+            with self.lock:
+                facing = self.facing
+            if behind(now_user, robot, facing, self.params.side_limit):  # the last half metre would end at her back
+                return False, f"move_base {state_name(state)} behind the user: {text}"
         moved = f"the pose moved {moves} time(s) with her; " if moves else ""
         if not p.align:
             return True, moved + stalled + f"move_base {state_name(state)}"

@@ -6,10 +6,17 @@ piece of furniture and unknown cell of the robot's map, and a straight line of s
 that crosses no obstacle (no pose on the far side of a wall). Candidates are ranked
 (:func:`rank`), best first:
 
-- on the robot's side of the user (seed 3.10: "first on the robot's side"): the angle at the user
-  between the line to the robot and the line to the candidate, ``offset``, is what counts. The
-  far side costs most: a person who faces the robot that found them would be approached from
-  behind (Walters et al. 2007: never from behind);
+- in front of the user: the angle at the user between the way they face and the line to the
+  candidate, ``offset``, is what counts. The far side, behind them, costs most (Walters et al.
+  2007: never from behind). Which way they face comes from the tracker (user_tracker_ni's
+  ``facings``: a seated person's shins in front of the torso, a walking person's way); while it
+  does not say, the robot's side stands for the front (seed 3.10: "first on the robot's side"):
+  a person faces, most likely, the robot that found them;
+- when her facing is known, no pose nearer than ``knee_clearance`` to her knees, ``knee_reach``
+  in front of her centre: at 0.5 m, head-on and 30 degrees off would put the robot's nose on a
+  seated person's knees (florence_sim's seated body: shins 0.15-0.3 m in front of her centre, and
+  the tracker's centre is pulled a little toward them), so the front-left / front-right poses
+  start at 45 degrees;
 - front-left or front-right rather than head-on: an offset near ``preferred_offset`` (30 deg)
   costs least (Dautenhahn et al. 2006: seated people dislike a frontal approach and prefer the
   left or right, slightly the right; Walters et al. 2007: frontal is acceptable for a standing
@@ -17,18 +24,26 @@ that crosses no obstacle (no pose on the far side of a wall). Candidates are ran
 - the person's right (the robot's left as it faces them) by a little;
 - more room around the pose, then the shorter way for the robot.
 
-The tracker does not say which way a person faces, so "front" is the side the robot saw them
-from.
-
-**Trials.** approach_me_map asks move_base's ``make_plan`` for the best candidates first (those
-without a path are skipped), sends the first with a path to move_base, and after a failure tries
-the next one at least ``trial_separation`` away in angle: at most 3 trials (seed 3.10).
+**Trials.** approach_me_map asks move_base's ``make_plan`` for the best candidates first, sends
+the first with a path to move_base, and after a failure tries the next one at least
+``trial_separation`` away in angle: at most 3 trials (seed 3.10). Candidates without a path are
+skipped. A path that goes round the user within ``pass_distance`` of her by more than
+``pass_sweep`` (:func:`swept_near`) is taken only when no other candidate has a path, even one
+behind her: move_base's local planner keeps 0.6 m from a person (min_person_distance) and cannot
+follow a plan that goes round her nearer, so the robot stalls on the way, at her back. (Taken
+before the poses behind her, gotoUser to test_locator_sim's seated user, in the living room's
+corner between the coffee table and a chair, took 106 and 132 s and once ABORTED after 200 s;
+with the pose behind her, 14 s.)
 
 **A stalled trial** (:class:`Stall`). Near a seated person's body move_base may stop short of the
 pose and never finish: its local planner refuses to turn the footprint's nose into her costs
 (the last 0.2-0.4 rad of yaw) and waits until the trial's timeout. A robot that has not moved
 for ``stall_timeout`` within ``stall_radius`` of the pose ends move_base's goal and does the
 last half metre from there.
+
+A trial whose move_base goal failed ends with the last half metre from where the robot stands
+when that is within 0.6 m of the pose's distance from the user, but not from behind her
+(:func:`behind`): the next trial goes round her instead.
 
 **The last half metre** (:class:`Align`). move_base stops within its xy_goal_tolerance (0.25 m)
 of the goal, too coarse for 0.5 m from a person. From where it stopped, the robot turns on the
@@ -51,11 +66,15 @@ class ApproachParams:
     safe_distance: float = 0.5  # [m] centre of the robot to centre of the user (seed DEFAULT_SAFE_DISTANCE)
     step: float = math.radians(15.0)  # [rad] between candidate angles around the user
     preferred_offset: float = math.radians(30.0)  # [rad] front-left / front-right
-    side_limit: float = math.radians(90.0)  # [rad] beyond this offset: the far side
+    # [rad] beyond this offset: the far side, behind her (not wider: the tracker's facing of a seated person
+    # is 15-35 deg off; a pose 105 deg from it ended 152 deg from her true facing in test_locator_sim's corner)
+    side_limit: float = math.radians(90.0)
     min_clearance: float = 0.25  # [m] from a candidate's centre to walls and furniture on the map
     user_radius: float = 0.3  # [m] obstacles this near the user are the user's seat (sofa, chair, bed)
     trial_separation: float = math.radians(40.0)  # [rad] a new trial differs this much from the tried ones
     right_bonus: float = 0.05  # cost taken off the person's right side
+    knee_reach: float = 0.3  # [m] a seated person's knees this far in front of her centre (her facing known) ...
+    knee_clearance: float = 0.35  # [m] ... and no pose's centre nearer them than this (the robot's radius + 0.17)
 
 
 @dataclass(frozen=True)
@@ -64,7 +83,7 @@ class Candidate:
     y: float
     yaw: float  # [rad] facing the user
     angle: float  # [rad] direction from the user to the pose
-    offset: float  # [rad] angle at the user from the line to the robot, counter-clockwise positive
+    offset: float  # [rad] angle at the user from the way they face, counter-clockwise positive
     clearance: float  # [m] to the nearest obstacle of the map
     cost: float
 
@@ -88,17 +107,23 @@ class ObstacleGrid(Grid):
         return self.clearance_at(xy) >= radius
 
 
-def rank(user, robot, p, grid=None, exclude=()):
+def rank(user, robot, p, grid=None, exclude=(), facing=None):
     """Candidate poses around ``user`` (x, y) [m] for a robot at ``robot`` (x, y) [m], best first
     (module docstring). ``grid``: an ObstacleGrid (None: every pose is free); ``exclude``: angles
-    [rad] around the user already tried (candidates nearer than p.trial_separation are left out)."""
+    [rad] around the user already tried (candidates nearer than p.trial_separation are left out);
+    ``facing`` [rad]: which way the user faces, in the frame of ``user`` (None or not finite:
+    unknown, the robot's side is the front)."""
     ux, uy = user
-    toward_robot = math.atan2(robot[1] - uy, robot[0] - ux)
+    known = facing is not None and math.isfinite(facing)
+    front = facing if known else math.atan2(robot[1] - uy, robot[0] - ux)
     n = max(4, round(2 * math.pi / p.step))
     offsets = np.array([angles.wrap(k * 2 * math.pi / n) for k in range(n)])
-    directions = toward_robot + offsets
+    directions = front + offsets
     xy = np.column_stack([ux + p.safe_distance * np.cos(directions), uy + p.safe_distance * np.sin(directions)])
     clearance = np.full(n, math.inf) if grid is None else grid.clearance_at(xy)
+    if known:  # her knees (seated) or her way (walking) in front of her: not where the robot stands
+        knees = np.hypot(xy[:, 0] - ux - p.knee_reach * math.cos(front), xy[:, 1] - uy - p.knee_reach * math.sin(front))
+        clearance = np.where(knees < p.knee_clearance, -math.inf, clearance)
     out = []
     for k in range(n):
         direction = float(angles.wrap(directions[k]))
@@ -110,7 +135,7 @@ def rank(user, robot, p, grid=None, exclude=()):
             continue
         off = float(offsets[k])
         cost = _angle_cost(abs(off), p) + 0.2 * max(0.0, 0.45 - min(clearance[k], 0.45)) / 0.2
-        if off < 0:  # clockwise from the robot's line: the right of a person facing the robot
+        if off < 0:  # clockwise from the way the person faces: their right
             cost -= p.right_bonus
         cost += 0.1 * float(np.hypot(xy[k, 0] - robot[0], xy[k, 1] - robot[1]))
         out.append(Candidate(float(xy[k, 0]), float(xy[k, 1]), float(angles.wrap(direction + math.pi)), direction,
@@ -119,8 +144,39 @@ def rank(user, robot, p, grid=None, exclude=()):
     return out
 
 
+def nearest_track(user, xy, gate):
+    """Index of the track of ``xy`` [N, 2] (map) nearest ``user`` (x, y) within ``gate`` [m], or None."""
+    xy = np.asarray(xy, dtype=float).reshape(-1, 2)
+    d = np.hypot(xy[:, 0] - user[0], xy[:, 1] - user[1])
+    d[~np.isfinite(d)] = np.inf
+    if not len(d) or d.min() > gate:
+        return None
+    return int(np.argmin(d))
+
+
+def swept_near(path_xy, user, radius):
+    """How far [rad] a path (N, 2) [m] goes round ``user`` (x, y) within ``radius`` [m] of her: the
+    span of the bearings from her of its points nearer than ``radius``, unwrapped along the path
+    (0 when none is that near)."""
+    xy = np.asarray(path_xy, dtype=float).reshape(-1, 2)
+    if not len(xy):
+        return 0.0
+    bearing = np.unwrap(np.arctan2(xy[:, 1] - user[1], xy[:, 0] - user[0]))
+    near = np.hypot(xy[:, 0] - user[0], xy[:, 1] - user[1]) < radius
+    return float(np.ptp(bearing[near])) if near.any() else 0.0
+
+
+def behind(user, robot, facing, limit):
+    """Whether ``robot`` (x, y) [m] stands behind a user at ``user`` (x, y) who faces ``facing``
+    [rad]: more than ``limit`` [rad] (ApproachParams.side_limit) from the way she faces (None or
+    NaN: unknown, never behind)."""
+    if facing is None or not math.isfinite(facing):
+        return False
+    return abs(angles.diff(math.atan2(robot[1] - user[1], robot[0] - user[0]), facing)) > limit
+
+
 def _angle_cost(offset, p):
-    """Cost of an approach ``offset`` [rad] (absolute) from the line toward the robot."""
+    """Cost of an approach ``offset`` [rad] (absolute) from the way the user faces."""
     front = p.preferred_offset
     if offset <= 2 * front:  # front-left / front-right best, head-on next
         return 0.5 * abs(offset - front) / front
