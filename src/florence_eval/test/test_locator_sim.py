@@ -112,12 +112,12 @@ def test_goto_room_reaches_every_room_and_get_robot_pos_room_agrees(stack):
 
 
 @pytest.mark.xfail(strict=False, reason=(
-    "known defect (issue 20): on the merged stack the robot, seeing the seated user on its way in from the kitchen, "
-    "ends 0.52-0.55 m from her but behind her (side 176-179 deg; 3 runs of 3, with and without move_base's people "
-    "layers): approach_me_map's 'front' is the side the robot saw her from. user_tracker_ni now tells which way she "
-    "faces (TrackedUsers.facings); ranked from it, the robot reached her front once in 3 runs here: in this cramped "
-    "corner move_base waited for her on the way round her (min_person_distance) and ended trials 0.34-0.70 m from her "
-    "(issue 20's notes), so approach_me_map does not use it yet"))
+    "known defect (issue 20): the robot, seeing the seated user on its way in from the kitchen, comes up behind her "
+    "in the living room's corner between the coffee table and a chair. approach_me_map ranks poses from the way the "
+    "tracker says she faces (136-150 deg of her true 160), but every path to her front or side goes round her nearer "
+    "than move_base's min_person_distance (0.6 m), where the local planner stalls: it takes a pose behind her, 13 s, "
+    "at her back-right (-155 deg; before 15c3da5, 176-179 deg). With those paths taken first: 106 s at her side, 132 s "
+    "at her front-right, and once ABORTED after 200 s"))
 def test_goto_user_sitting_in_the_living_room_from_the_kitchen(stack):
     session, procs = stack
     session.place_robot(hotspot(session, "kitchen"))
