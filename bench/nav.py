@@ -30,12 +30,14 @@ collisions 0, the centre never nearer than 0.5 m to a person's while driving, bo
 0.05 m, median time-to-goal <= 1.35 x (path length / max_vel_x) with people and <= 1.25 without;
 under --busy-cores 1: collisions 0 and success >= 95 %. move_base's CPU per simulated second from
 /proc. Writes bench/results/<name>.json and <name>.png (every trajectory over the map; red where
-the robot drove nearer than 0.5 m to a person).
+the robot drove nearer than 0.5 m to a person). Each leg also gives the largest turn on the spot
+without moving 0.1 m (``spin_in_place_rad``; the run: the legs with more than a full turn).
 """
 
 import argparse
 import contextlib
 import json
+import math
 import os
 import signal
 import subprocess
@@ -204,7 +206,8 @@ def main():
             leg = legs[-1]
             near = leg["person_distance_driving_m"]
             print(f"{len(legs):3d}: {state:9s} {took:6.1f} s plan {plan_m:5.2f} m ratio {leg['ratio']:4.2f} "
-                  f"gap {1000 * (leg['body_clearance_m'] or 0):3.0f} mm person "
+                  f"gap {1000 * (leg['body_clearance_m'] or 0):3.0f} mm spin {leg['spin_in_place_rad'] / math.tau:3.1f} "
+                  f"turns person "
                   f"{'-' if near is None else f'{near:.2f}'} m {text if state != 'SUCCEEDED' else ''}", flush=True)
             report(partial=True)  # what a long run has so far survives an interruption
         result = report(partial=False)

@@ -148,6 +148,19 @@ def test_time_breakdown_rest_and_phases():
     assert distance == pytest.approx(0.0, abs=1e-9) and yaw_error == pytest.approx(0.0, abs=1e-9)
 
 
+def test_spin_in_place_is_the_largest_turn_without_moving():
+    leg = straight_leg()  # 1 rad on the spot after driving 1 m
+    assert nav_metrics.spin_in_place(leg) == pytest.approx(1.0, abs=0.05)
+    t = np.arange(0.0, 10.0, 0.1)  # 1.5 rad/s for 10 s, the centre wobbling 2 cm: 15 rad
+    spin = np.column_stack([t, 0.02 * np.sin(t), np.zeros_like(t), np.asarray([math.remainder(1.5 * v, 2 * math.pi)
+                                                                                for v in t]), 0 * t, 1.5 + 0 * t])
+    assert nav_metrics.spin_in_place(spin) == pytest.approx(1.5 * 9.9, rel=1e-6)
+    moved = spin.copy()
+    moved[50:, 1] += 0.5  # driven off half way: two stays of about 7.4 rad each
+    assert nav_metrics.spin_in_place(moved) == pytest.approx(1.5 * 4.9, rel=1e-6)
+    assert nav_metrics.spin_in_place(spin[:1]) == 0.0
+
+
 def test_summary_over_legs():
     reached = {"state": "SUCCEEDED", "goal": [1.0, 0.0, 0.0], "text": "", "collisions": 0, "body_clearance_m": 0.1,
                "ratio": 1.2, "ratio_with_turns": 1.1, "ratio_to_rest": 1.3, "rest_s": 5.0, "time_s": 4.0,
@@ -158,6 +171,10 @@ def test_summary_over_legs():
     assert summary["pairs"] == 2 and summary["succeeded"] == 1 and summary["success_rate"] == 0.5
     assert summary["collisions"] == 1 and summary["body_clearance_m"]["min"] == 0.0
     assert summary["time_ratio_median"] == 1.2 and summary["rest_after_outcome_s"]["max"] == 1.0
+    assert summary["legs_spinning_over_a_turn"] == 0  # legs without the figure count as not spinning
+    spun = nav_metrics.summarise([{**reached, "spin_in_place_rad": 7.0}, {**reached, "spin_in_place_rad": 3.0}])
+    assert spun["legs_spinning_over_a_turn"] == 1
+    assert spun["spin_in_place_max_turns"] == pytest.approx(7.0 / 2 / math.pi)
     assert summary["goal_error"]["rest_error_m"]["beyond_tolerance"] == 1  # 0.3 m > xy_goal_tolerance 0.25 m
     assert summary["time_share"]["driving_s"] == pytest.approx(0.75)
     assert summary["failures"] == [{"goal": [1.0, 0.0, 0.0], "state": "ABORTED", "text": "no path"}]

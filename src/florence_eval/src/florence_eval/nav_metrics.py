@@ -103,6 +103,24 @@ def time_breakdown(track):
             "standing_s": float(dt[~moving & ~turning].sum())}
 
 
+def spin_in_place(track, radius=0.1):
+    """The largest turn [rad] the robot made without moving ``radius`` [m] (the sum of its yaw
+    changes, either way, while it stayed within ``radius`` of where that stay began): a turn onto
+    the plan or to the goal yaw is at most a half turn (a full one where only the long way is
+    free); more is a robot spinning on the spot, its plan swinging round (a person it turned its
+    back on forgotten, seen again, ...)."""
+    track = np.asarray(track)
+    best = turned = 0.0
+    anchor = 0
+    for k in range(1, len(track)):
+        if math.hypot(track[k, 1] - track[anchor, 1], track[k, 2] - track[anchor, 2]) > radius:
+            anchor, turned = k, 0.0
+            continue
+        turned += abs(math.remainder(track[k, 3] - track[k - 1, 3], 2.0 * math.pi))
+        best = max(best, turned)
+    return best
+
+
 def time_to_rest(track, t0, v=0.01, w=0.01):
     """Simulated seconds from ``t0`` until the track came to rest for good (speeds within ``v``
     [m/s] and ``w`` [rad/s] from then on)."""
@@ -246,7 +264,7 @@ def leg_record(goal, state, text, took, driven, plan_m, turns_s, track, t0, coll
         "turns_s": turns_s, "ratio_with_turns": took / (ideal + turns_s),
         "rest_s": rest, "ratio_to_rest": rest / ideal,
         "end_error_m": end_error, "end_yaw_error_rad": end_yaw_error, "rest_error_m": rest_error,
-        **time_breakdown(track), **leg_phases(track, goal),
+        **time_breakdown(track), **leg_phases(track, goal), "spin_in_place_rad": spin_in_place(track),
         "collisions": collisions,
         "collision_poses": [list(p) for p in collision_poses],
         "body_clearance_m": clearance, "world_clearance_m": world, **near,
@@ -317,6 +335,10 @@ def summarise(legs, targets=None):
                                       ("rest_error_m", XY_GOAL_TOLERANCE))},
         "time_share": {k: float(sum(leg[k] for leg in ok) / max(1e-9, sum(leg["time_s"] for leg in ok)))
                        for k in ("driving_s", "turning_in_place_s", "standing_s")},
+        # legs in which the robot turned more than a full turn on the spot (spin_in_place), and the most
+        "legs_spinning_over_a_turn": sum(1 for leg in legs if leg.get("spin_in_place_rad", 0.0) > 2.0 * math.pi),
+        "spin_in_place_max_turns": max((leg.get("spin_in_place_rad", 0.0) for leg in legs), default=0.0)
+        / (2.0 * math.pi),
         "failures": [{k: leg[k] for k in ("goal", "state", "text")} for leg in legs if leg["state"] != "SUCCEEDED"],
     }
     targets = TARGETS if targets is None else targets
