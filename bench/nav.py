@@ -206,8 +206,8 @@ def main():
             leg = legs[-1]
             near = leg["person_distance_driving_m"]
             print(f"{len(legs):3d}: {state:9s} {took:6.1f} s plan {plan_m:5.2f} m ratio {leg['ratio']:4.2f} "
-                  f"gap {1000 * (leg['body_clearance_m'] or 0):3.0f} mm spin {leg['spin_in_place_rad'] / math.tau:3.1f} "
-                  f"turns person "
+                  f"gap {1000 * (leg['body_clearance_m'] or 0):3.0f} mm "
+                  f"spin {leg['spin_in_place_rad'] / math.tau:3.1f} turns person "
                   f"{'-' if near is None else f'{near:.2f}'} m {text if state != 'SUCCEEDED' else ''}", flush=True)
             report(partial=True)  # what a long run has so far survives an interruption
         result = report(partial=False)
