@@ -13,6 +13,7 @@ from approach_me_map.poses import (
     behind,
     nearest_track,
     rank,
+    still_facings,
     swept_near,
 )
 
@@ -105,6 +106,11 @@ def test_behind_is_more_than_the_side_limit_from_her_facing():
     assert not behind(user, (1.5, 1.2), 0.0, limit)
     assert not behind(user, (1.0, 1.5), 0.0, limit)  # at her side: not behind
     assert not behind(user, (0.5, 1.0), None, limit) and not behind(user, (0.5, 1.0), math.nan, limit)
+
+
+def test_only_the_facings_of_slow_tracks_are_used():
+    out = still_facings([0.5, 1.0, math.nan, 2.0], [0.1, 0.4, 0.0, math.nan], 0.25)
+    assert out[0] == 0.5 and all(math.isnan(v) for v in out[1:])
 
 
 def test_the_user_s_track_is_the_nearest_within_the_gate():

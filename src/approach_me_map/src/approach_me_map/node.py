@@ -59,6 +59,7 @@ from approach_me_map.poses import (
     behind,
     nearest_track,
     rank,
+    still_facings,
     swept_near,
 )
 from detect_users.msg import DetectedUser
@@ -83,8 +84,10 @@ PARAMS = ParamTable(
           unit="deg", gt=0, le=90),
     Param("preferred_offset", float, math.degrees(_A.preferred_offset), "front-left / front-right: the angle "
           "at the user from the way she faces that costs least", unit="deg", ge=0, le=60),
-    Param("use_facing", bool, True, "the front is the way the tracker says the user faces (seated: her shins; "
-          "walking: her way); false, or while it does not say: the robot's side"),
+    Param("use_facing", bool, True, "the front is the way the tracker says the user faces (a seated user's "
+          "shins); false, or while it does not say: the robot's side"),
+    Param("facing_max_speed", float, 0.25, "a facing is used only while the user's track is slower than this "
+          "(a walker's facing is her way, and a still person's track jitters so close up)", unit="m/s", gt=0),
     Param("pass_distance", float, 0.6, "a make_plan path that goes round the user nearer than this (move_base's "
           "min_person_distance) ...", unit="m", ge=0),
     Param("pass_sweep", float, 45.0, "... by more than this angle is taken only when no other pose has a path "
@@ -217,6 +220,8 @@ class ApproachMeMapNode:
         facings = np.full(len(xy), np.nan)
         if self.p.use_facing and len(msg.facings) == len(xy):
             facings = np.asarray(msg.facings, dtype=float) + math.atan2(m[1, 0], m[0, 0])  # NaN stays NaN
+            speeds = [math.hypot(v.x, v.y) for v in msg.velocities] if len(msg.velocities) == len(xy) else []
+            facings = still_facings(facings, speeds or np.zeros(len(xy)), self.p.facing_max_speed)
         with self.lock:
             self.tracks = (xy, facings)
             user = self.user if self.running else None
@@ -333,7 +338,7 @@ class ApproachMeMapNode:
                              + ("" if candidates else " (none free on the map)"))
                 break
             tried.append(goal.angle)
-            ok, why = self._drive(goal, user, beat)
+            ok, why = self._drive(goal, user, beat, last=trial == p.trials)
             front = "the robot's side" if facing is None else f"her facing {math.degrees(facing):.0f} deg"
             notes.append(f"trial {trial} at {math.degrees(goal.offset):+.0f} deg from {front}: {why}")
             if ok:
@@ -373,8 +378,9 @@ class ApproachMeMapNode:
                           "none" if chosen is None else f"{math.degrees(chosen.offset):+.0f} deg", "; ".join(seen))
         return chosen
 
-    def _drive(self, goal, user, beat):
-        """One trial: move_base to ``goal``, then the last half metre. (ok, what happened)."""
+    def _drive(self, goal, user, beat, last):
+        """One trial: move_base to ``goal``, then the last half metre (``last``: the last trial). (ok, what
+        happened)."""
         p = self.p
         done = threading.Event()
         aim, target = user, (goal.x, goal.y)  # the user's place the pose was put around, and the pose
@@ -430,7 +436,7 @@ class ApproachMeMapNode:
                 return False, f"move_base {state_name(state)}: {text}"
             with self.lock:
                 facing = self.facing
-            if behind(now_user, robot, facing, self.params.side_limit):  # the last half metre would end at her back
+            if not last and behind(now_user, robot, facing, self.params.side_limit):  # it would end at her back
                 return False, f"move_base {state_name(state)} behind the user: {text}"
         moved = f"the pose moved {moves} time(s) with her; " if moves else ""
         if not p.align:

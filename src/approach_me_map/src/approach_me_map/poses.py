@@ -9,9 +9,10 @@ that crosses no obstacle (no pose on the far side of a wall). Candidates are ran
 - in front of the user: the angle at the user between the way they face and the line to the
   candidate, ``offset``, is what counts. The far side, behind them, costs most (Walters et al.
   2007: never from behind). Which way they face comes from the tracker (user_tracker_ni's
-  ``facings``: a seated person's shins in front of the torso, a walking person's way); while it
-  does not say, the robot's side stands for the front (seed 3.10: "first on the robot's side"):
-  a person faces, most likely, the robot that found them;
+  ``facings``: a seated person's shins in front of the torso; the node leaves out a walker's,
+  which is her way, and so what a jittering track reads as walking); while it does not say, the
+  robot's side stands for the front (seed 3.10: "first on the robot's side"): a person faces,
+  most likely, the robot that found them;
 - when her facing is known, no pose nearer than ``knee_clearance`` to her knees, ``knee_reach``
   in front of her centre: at 0.5 m, head-on and 30 degrees off would put the robot's nose on a
   seated person's knees (florence_sim's seated body: shins 0.15-0.3 m in front of her centre, and
@@ -43,7 +44,7 @@ last half metre from there.
 
 A trial whose move_base goal failed ends with the last half metre from where the robot stands
 when that is within 0.6 m of the pose's distance from the user, but not from behind her
-(:func:`behind`): the next trial goes round her instead.
+(:func:`behind`) unless it is the last trial: the next trial tries another pose instead.
 
 **The last half metre** (:class:`Align`). move_base stops within its xy_goal_tolerance (0.25 m)
 of the goal, too coarse for 0.5 m from a person. From where it stopped, the robot turns on the
@@ -142,6 +143,16 @@ def rank(user, robot, p, grid=None, exclude=(), facing=None):
                              off, float(clearance[k]), float(cost)))
     out.sort(key=lambda c: c.cost)
     return out
+
+
+def still_facings(facings, speeds, max_speed):
+    """The tracker's facings [rad] (N,) with NaN where a track moves at ``max_speed`` [m/s] or faster
+    (a walker's facing is her way; a still person's track jittering reads the same) or its speed
+    is not finite."""
+    facings = np.array(facings, dtype=float).reshape(-1)
+    speeds = np.asarray(speeds, dtype=float).reshape(-1)
+    facings[~(speeds < max_speed)] = np.nan
+    return facings
 
 
 def nearest_track(user, xy, gate):
