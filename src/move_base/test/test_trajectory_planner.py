@@ -338,6 +338,24 @@ def test_no_escape_toward_a_person_behind_the_robot():
         assert (cmd == (-0.1, 0.0, 0.0)) is backs, (person, cmd, cost)
 
 
+def test_no_escape_toward_a_person_remembered_behind_the_robot():
+    """Florence: the tracker dropped the person 1 m behind (out of view) but the global costmap
+    still remembers them (remembered_people): no backing up toward them either; remembered 2 m
+    behind, it backs up."""
+    cm = Costmap2D(100, 100, 0.1)
+    cm.costs[45:56, 53] = LETHAL_OBSTACLE
+    cm.costs[45:56, 52] = LETHAL_OBSTACLE
+    for person, backs in (((4.0, 5.0), False), ((3.0, 5.0), True)):
+        tp = TrajectoryPlanner(seed_params(min_person_distance=0.6), FOOTPRINT)
+        tp.remembered_people = np.array([[*person, 0.0, 0.0]])
+        cmd, cost, _ = tp.find_best_command(cm, 5.0, 5.0, 0.0, 0.0, 0.0, 0.0, straight_plan(5.0, 8.0, 5.0))
+        assert (cmd == (-0.1, 0.0, 0.0)) is backs, (person, cmd, cost)
+    # a remembered person is no obstacle otherwise: in front, 0.5 m ahead, the robot still backs up
+    tp = TrajectoryPlanner(seed_params(min_person_distance=0.6), FOOTPRINT)
+    tp.remembered_people = np.array([[5.5, 5.0, 0.0, 0.0]])
+    assert tp.find_best_command(cm, 5.0, 5.0, 0.0, 0.0, 0.0, 0.0, straight_plan(5.0, 8.0, 5.0))[0] == (-0.1, 0.0, 0.0)
+
+
 def test_escape_judges_its_end_by_the_body_not_the_padding():
     """Florence: the launch pads the footprint by 6 cm. Boxed in at the nose, with a jamb's
     corner beside the tail that the padding would touch after backing up but the robot's own

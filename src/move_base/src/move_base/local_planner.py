@@ -205,13 +205,16 @@ class LocalPlanner:
         """True once the robot was within both goal tolerances (since the last :meth:`set_plan`)."""
         return self._reached_goal
 
-    def set_people(self, people, still=None):
+    def set_people(self, people, still=None, remembered=None):
         """The tracked people for ``min_person_distance``: (P, 4) x, y [m], vx, vy [m/s] in the
         costmap frame of the next cycles; ``still`` (S, 2) [m]: points that may be people the
         tracker does not know (legs the laser sees where the map has nothing), kept at the same
-        distance."""
+        distance; ``remembered`` (R, 4): people seen longer ago (the global costmap's memory), only
+        for the rule that the robot does not back up toward a person behind it."""
         self.planner.people = np.asarray(people, dtype=float).reshape(-1, 4)
         self.planner.still_people = np.zeros((0, 2)) if still is None else np.asarray(still, float).reshape(-1, 2)
+        self.planner.remembered_people = (np.zeros((0, 4)) if remembered is None
+                                          else np.asarray(remembered, float).reshape(-1, 4))
 
     def compute_velocity(self, costmap, robot_pose, robot_vel, plan):
         """One control cycle (computeVelocityCommands).

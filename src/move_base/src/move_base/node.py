@@ -192,9 +192,19 @@ class ControllerAdapter:
             still = node.unmapped_near(pose, 2.5)
             still = pose2d.transform_points(to_local, still) if len(still) else still
         node.local_planner.pose_age = local.robot_pose_age + max(0.0, rospy.get_time() - start)
+        # the people the global costmap still remembers (its keep_time: 8 s in the launch file against the
+        # local 2 s), for the rule that the robot does not back up toward a person behind it
+        remembered = None
+        global_people = node.planner_costmap.layered.people
+        if global_people is not None and node.local_planner.params.min_person_distance > 0.0:
+            with node.planner_costmap.lock:
+                remembered = np.asarray(global_people.current(rospy.get_time())[0], dtype=float).reshape(-1, 4)
+            if len(remembered):
+                remembered = np.column_stack([pose2d.transform_points(to_local, remembered[:, :2]),
+                                              np.zeros((len(remembered), 2))])
         with local.lock:
             if local.layered.people is not None:
-                node.local_planner.set_people(local.layered.people.current(rospy.get_time())[0], still)
+                node.local_planner.set_people(local.layered.people.current(rospy.get_time())[0], still, remembered)
             ok, cmd, reason = node.local_planner.compute_velocity(local.costmap, here, node.robot_velocity(),
                                                                   plan_local)
         stamp = rospy.Time.now()

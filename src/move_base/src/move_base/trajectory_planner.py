@@ -625,6 +625,7 @@ class TrajectoryPlanner:
         self.last_trajectory = None  # the Trajectory chosen by the last find_best_command
         self.people = np.zeros((0, 4))  # (P, 4) x, y [m], vx, vy [m/s] in the costmap frame (min_person_distance)
         self.still_people = np.zeros((0, 2))  # (S, 2) x, y [m]: what may be people the tracker does not know
+        self.remembered_people = np.zeros((0, 4))  # (R, 4): people seen longer ago, only for backs_toward
         self.refused_for_people = 0  # trajectories the last scoring refused for min_person_distance alone
         self._brake = None  # (x, y, yaw, vx, acc_lim_x) of the cycle: braking is never refused for people
         self._cost_without_people = None
@@ -796,7 +797,7 @@ class TrajectoryPlanner:
         cost = np.where(status == 0, cost, status.astype(float))
         self.refused_for_people = 0
         self._cost_without_people = cost
-        if p.min_person_distance > 0.0 and (len(self.people) or len(self.still_people)):
+        if p.min_person_distance > 0.0 and (len(self.people) or len(self.still_people) or len(self.remembered_people)):
             from move_base.people_layer import approaches, backs_toward
 
             index = np.arange(points.shape[1])[None, :]
@@ -805,7 +806,8 @@ class TrajectoryPlanner:
                               still=self.still_people)
             # nor backing up toward a person behind (out of the sensors' view), the escape included
             # (its collision cost -1 would turn into a licence to back up)
-            back = backs_toward(points, self.people, REAR_PERSON_DISTANCE) & ((cost >= 0.0) | (cost == -1.0))
+            rear = np.vstack([self.people.reshape(-1, 4), self.remembered_people.reshape(-1, 4)])
+            back = backs_toward(points, rear, REAR_PERSON_DISTANCE) & ((cost >= 0.0) | (cost == -1.0))
             self.refused_for_people = int(np.count_nonzero((near | back) & (cost >= 0.0)))
             cost = np.where((near & (cost >= 0.0)) | back, PEOPLE_COST, cost)
         return cost, n_valid
