@@ -346,9 +346,9 @@ class ApproachMeMapNode:
         return "ABORTED", "; ".join(notes) or "no trial"
 
     def _plannable(self, candidates, robot, beat, user):
-        """The first candidate with a plan that does not go round the user (module poses), else the first
-        with a plan, else None."""
-        fallback, seen = None, []
+        """The first candidate with a plan that does not go round the user (module poses), else the one
+        whose plan goes least round her, else None."""
+        fallback, least, seen = None, math.inf, []
         chosen = None
         for c in candidates[:self.p.plan_checks]:
             self._check()
@@ -370,8 +370,8 @@ class ApproachMeMapNode:
                 chosen = c
                 break
             seen.append(f"{math.degrees(c.offset):+.0f} deg: the way goes {math.degrees(sweep):.0f} deg round her")
-            if fallback is None:
-                fallback = c
+            if sweep < least:
+                fallback, least = c, sweep
         chosen = chosen or fallback
         if seen:
             rospy.loginfo(LOG + "poses asked of make_plan before the one taken (%s): %s",

@@ -30,11 +30,11 @@ the first with a path to move_base, and after a failure tries the next one at le
 ``trial_separation`` away in angle: at most 3 trials (seed 3.10). Candidates without a path are
 skipped. A path that goes round the user within ``pass_distance`` of her by more than
 ``pass_sweep`` (:func:`swept_near`) is taken only when no other candidate has a path, even one
-behind her: move_base's local planner keeps 0.6 m from a person (min_person_distance) and cannot
-follow a plan that goes round her nearer, so the robot stalls on the way, at her back. (Taken
-before the poses behind her, gotoUser to test_locator_sim's seated user, in the living room's
-corner between the coffee table and a chair, took 106 and 132 s and once ABORTED after 200 s;
-with the pose behind her, 14 s.)
+behind her, and then the one whose path goes least round her: move_base's local planner keeps
+0.6 m from a person (min_person_distance) and cannot follow a plan that goes round her nearer,
+so the robot stalls on the way, at her back. (Taken before the poses behind her, gotoUser to
+test_locator_sim's seated user, in the living room's corner between the coffee table and a
+chair, took 106 and 132 s and once ABORTED after 200 s; with the pose behind her, 14 s.)
 
 **A stalled trial** (:class:`Stall`). Near a seated person's body move_base may stop short of the
 pose and never finish: its local planner refuses to turn the footprint's nose into her costs
