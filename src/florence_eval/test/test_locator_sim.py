@@ -113,8 +113,9 @@ def test_goto_room_reaches_every_room_and_get_robot_pos_room_agrees(stack):
 
 @pytest.mark.xfail(strict=False, reason=(
     "known defect (issue 20): the robot, seeing the seated user on its way in from the kitchen, comes up behind her "
-    "in the living room's corner between the coffee table and a chair. approach_me_map ranks poses from the way the "
-    "tracker says she faces (136-150 deg of her true 160), but every path to her front or side goes round her nearer "
+    "in the living room's corner between the coffee table and a chair. approach_me_map can rank poses from the way "
+    "the tracker says she faces (~use_facing, off by default; 136-150 deg of her true 160), but every path "
+    "to her front or side goes round her nearer "
     "than move_base's min_person_distance (0.6 m), where the local planner stalls: it takes a pose behind her, 13 s, "
     "at her back-right (-155 deg; before 15c3da5, 176-179 deg). With those paths taken first: 106 s at her side, 132 s "
     "at her front-right, and once ABORTED after 200 s"))

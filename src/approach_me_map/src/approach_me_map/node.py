@@ -84,8 +84,8 @@ PARAMS = ParamTable(
           unit="deg", gt=0, le=90),
     Param("preferred_offset", float, math.degrees(_A.preferred_offset), "front-left / front-right: the angle "
           "at the user from the way she faces that costs least", unit="deg", ge=0, le=60),
-    Param("use_facing", bool, True, "the front is the way the tracker says the user faces (a seated user's "
-          "shins); false, or while it does not say: the robot's side"),
+    Param("use_facing", bool, False, "the front is the way the tracker says the user faces (a seated user's "
+          "shins); false (the default: see the README), or while it does not say: the robot's side"),
     Param("facing_max_speed", float, 0.25, "a facing is used only while the user's track is slower than this "
           "(a walker's facing is her way, and a still person's track jitters so close up)", unit="m/s", gt=0),
     Param("pass_distance", float, 0.6, "a make_plan path that goes round the user nearer than this (move_base's "
