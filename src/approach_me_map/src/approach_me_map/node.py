@@ -219,7 +219,7 @@ class ApproachMeMapNode:
         xy = (m @ pts.T).T[:, :2]
         facings = np.full(len(xy), np.nan)
         if self.p.use_facing and len(msg.facings) == len(xy):
-            facings = np.asarray(msg.facings, dtype=float) + math.atan2(m[1, 0], m[0, 0])  # NaN stays NaN
+            facings = np.asarray(msg.facings, dtype=float) + pose2d.yaw_of_matrix(m[:3, :3])  # NaN stays NaN
             speeds = [math.hypot(v.x, v.y) for v in msg.velocities] if len(msg.velocities) == len(xy) else []
             facings = still_facings(facings, speeds or np.zeros(len(xy)), self.p.facing_max_speed)
         with self.lock:
