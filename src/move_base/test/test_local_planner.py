@@ -738,3 +738,32 @@ def test_turn_to_plan_leaves_a_plan_ahead_to_the_rollouts(heading_deg):
     lp.set_plan(plan)
     ok, _, reason = lp.compute_velocity(cm, (2.5, 2.5, 0.0), (0.0, 0.0, 0.0), plan)
     assert ok and reason != TURNING_TO_PLAN
+
+
+def test_the_user_the_robot_is_sent_to_is_kept_at_approach_person_distance():
+    """Florence: a goal 0.5 m in front of a seated user (approach_me_map's), xy_goal_tolerance 0.05 m.
+    With min_person_distance 0.6 the local planner will not drive within 0.6 m of her and reports
+    the person; announced as the person the robot is sent to (set_people's ``approached``,
+    move_base/approach_target; her track 0.07 m off), she is kept at approach_person_distance 0.45 m
+    and the robot reaches the goal. approach_person_distance unset: her too at 0.6 m."""
+    cm = Costmap2D(100, 100, 0.1)
+    plan = line_plan(5.0, 5.0, 5.7, 5.0, yaw_end=0.0)
+    her = np.array([[6.2, 5.0, 0.0, 0.0]])
+
+    def drive(approached, **params):
+        lp = planner(min_person_distance=0.6, xy_goal_tolerance=0.05, **params)
+        lp.set_plan(plan)
+        x, v, reason = 5.0, 0.0, ""
+        for _ in range(80):
+            lp.set_people(her, approached=approached)
+            ok, cmd, reason = lp.compute_velocity(cm, (x, 5.0, 0.0), (v, 0.0, 0.0), plan)
+            v = cmd[0] if ok else 0.0
+            x += v * 0.1
+        return x, reason
+
+    x, reason = drive(None, approach_person_distance=0.45)
+    assert 6.2 - x >= 0.6 - 0.01 and "min_person_distance" in reason, (x, reason)
+    x, reason = drive((6.25, 5.05), approach_person_distance=0.45)
+    assert abs(x - 5.7) <= 0.05 + 1e-6 and reason == "goal reached", (x, reason)
+    x, reason = drive((6.25, 5.05))
+    assert 6.2 - x >= 0.6 - 0.01 and "min_person_distance" in reason, (x, reason)

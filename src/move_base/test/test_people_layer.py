@@ -14,6 +14,7 @@ from move_base.people_layer import (
     Person,
     ProxemicLayer,
     RecentPoints,
+    approach_exemption,
     approaches,
     backs_toward,
     blocked_plan_reason,
@@ -250,6 +251,40 @@ def test_still_points_count_as_people():
     short, t_short = straight(0.5, steps=9)  # to 0.4 m: 0.6 m from the legs, more than 0.6 - 0.1
     assert approaches(short[None], t_short[None], np.zeros((0, 4)), 0.6, still=legs).tolist() == [False]
     assert approaches(toward[None], t[None], np.zeros((0, 4)), 0.6, still=legs + 3.0).tolist() == [False]
+
+
+def test_the_person_approached_on_purpose_is_kept_at_her_own_distance():
+    """approach_me_map's user (move_base/approach_target): the tracked person nearest the announced
+    point within 0.5 m gets approach_person_distance, the others min_person_distance; her legs
+    (within 0.6 m of her) are hers, a stranger's stay."""
+    people = np.array([[1.0, 0.0, 0.0, 0.0], [3.0, 0.0, 0.0, 0.0]])
+    still = np.array([[0.75, 0.1], [0.75, -0.1], [2.7, 0.0]])  # her shins; a leg near the other
+    dist, kept, her = approach_exemption(people, still, (1.1, 0.05), 0.45, 0.6)  # her track 0.11 m off
+    assert her == 0 and dist.tolist() == [0.45, 0.6]
+    assert kept.tolist() == [[2.7, 0.0]]
+    # a robot driving at her to 0.5 m from her centre: allowed for her, refused for anybody else
+    toward, t = straight(0.25)  # 0 .. 0.475 m along x
+    assert approaches(toward[None], t[None], people[:1], 0.6, per_person=dist[:1]).tolist() == [False]
+    assert approaches(toward[None], t[None], people[:1], 0.6).tolist() == [True]
+    assert approaches(toward[None], t[None], people[:1], 0.6, per_person=[0.6]).tolist() == [True]
+    # nearer than approach_person_distance is refused for her too
+    on, t_on = straight(0.35)  # to 0.665 m: 0.335 m from her
+    assert approaches(on[None], t_on[None], people[:1], 0.6, per_person=dist[:1]).tolist() == [True]
+    # her legs would refuse the drive if still counted
+    assert approaches(toward[None], t[None], np.zeros((0, 4)), 0.6, still=still[:2]).tolist() == [True]
+
+
+def test_no_exemption_without_a_tracked_person_at_the_target_but_her_legs_are_still_hers():
+    people = np.array([[3.0, 0.0, 0.0, 0.0]])
+    still = np.array([[0.8, 0.1], [3.2, 0.0]])
+    dist, kept, her = approach_exemption(people, still, (1.0, 0.0), 0.45, 0.6)  # the tracker lost her
+    assert her == -1 and dist.tolist() == [0.6]
+    assert kept.tolist() == [[3.2, 0.0]]
+    for target in (None, (math.nan, 0.0)):
+        dist, kept, her = approach_exemption(people, still, target, 0.45, 0.6)
+        assert her == -1 and dist.tolist() == [0.6] and len(kept) == 2
+    dist, kept, her = approach_exemption(np.zeros((0, 4)), None, (1.0, 0.0), 0.45, 0.6)
+    assert her == -1 and dist.shape == (0,) and kept.shape == (0, 2)
 
 
 # --- giving way ----------------------------------------------------------------------------------

@@ -29,6 +29,9 @@ ROS Publishers:
     cmd_vel (geometry_msgs/Twist): the last half metre (remapped to the multiplexer's
         approach_me_map input); a zero Twist at the end and on shutdown.
     ~goal_poses (geometry_msgs/PoseArray, latched): the ranked candidate poses of the last approach.
+    move_base/approach_target (geometry_msgs/PointStamped, ~map_frame): the user's place, twice a
+        second while a move_base goal runs: move_base keeps her at its approach_person_distance
+        instead of min_person_distance (it is sent to her) and does not wait for her to step aside.
     /diagnostics: the approach under way and the last outcome with its reason.
 
 ROS Actions (client): move_base (move_base_msgs/MoveBaseAction).
@@ -43,7 +46,7 @@ import numpy as np
 import rospy
 import tf2_ros
 from actionlib_msgs.msg import GoalStatus
-from geometry_msgs.msg import PoseArray, Twist
+from geometry_msgs.msg import PointStamped, PoseArray, Twist
 from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from nav_msgs.msg import OccupancyGrid, Odometry
 from nav_msgs.srv import GetPlan
@@ -74,6 +77,7 @@ from florence_common_ros.transforms import lookup_matrix
 from user_tracker_ni.msg import TrackedUsers
 
 LOG = "approach_me_map: "
+TARGET_PERIOD = 0.5  # [s] between move_base/approach_target messages (move_base lets one lapse after 1.5 s)
 _A, _L = ApproachParams(), AlignParams()
 PARAMS = ParamTable(
     Param("safe_distance", float, _A.safe_distance, "distance from the user's centre to the robot's at the end "
@@ -162,6 +166,7 @@ class ApproachMeMapNode:
         self.status_pub = rospy.Publisher("approach_user/status", String, queue_size=5)
         self.cmd_pub = rospy.Publisher("cmd_vel", Twist, queue_size=1)
         self.poses_pub = rospy.Publisher("~goal_poses", PoseArray, queue_size=1, latch=True)
+        self.target_pub = rospy.Publisher("move_base/approach_target", PointStamped, queue_size=1)
         self.diag = Diagnostics("approach_me_map")
         self.diag.add("Approach", self._diagnose)
 
@@ -394,12 +399,16 @@ class ApproachMeMapNode:
         sent_goal = [None]
         started = sent = send()
         stall, stalled, moves = Stall(p.stall_radius, p.stall_timeout), "", 0
+        announced = -math.inf
         try:
             while not done.wait(0.1) and not sent_goal[0].poll():
                 self._check()
                 self._heartbeat(beat)
                 with self.lock:
                     now_user = self.user
+                if rospy.get_time() - announced >= TARGET_PERIOD:
+                    announced = rospy.get_time()
+                    self._announce(now_user)
                 if math.hypot(now_user[0] - user[0], now_user[1] - user[1]) > p.retarget_distance:
                     self.client.cancel_goal()
                     return False, f"the user moved to ({now_user[0]:.2f}, {now_user[1]:.2f})"
@@ -443,6 +452,13 @@ class ApproachMeMapNode:
             return True, moved + stalled + f"move_base {state_name(state)}"
         ok, why = self._align(beat)
         return ok, moved + stalled + why
+
+    def _announce(self, user):
+        """Tell move_base whom it is sent to (``move_base/approach_target``)."""
+        msg = PointStamped()
+        msg.header.stamp, msg.header.frame_id = rospy.Time.now(), self.p.map_frame
+        msg.point.x, msg.point.y = user
+        self.target_pub.publish(msg)
 
     def _align(self, beat):
         """The last half metre in the odometry frame."""

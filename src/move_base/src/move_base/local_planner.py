@@ -17,6 +17,7 @@ import numba
 import numpy as np
 
 from florence_common import angles
+from move_base.people_layer import approach_exemption
 from move_base.trajectory_planner import TrajectoryPlanner, poses_are_free, wrap_nb
 
 log = logging.getLogger(__name__)
@@ -205,13 +206,21 @@ class LocalPlanner:
         """True once the robot was within both goal tolerances (since the last :meth:`set_plan`)."""
         return self._reached_goal
 
-    def set_people(self, people, still=None, remembered=None):
+    def set_people(self, people, still=None, remembered=None, approached=None):
         """The tracked people for ``min_person_distance``: (P, 4) x, y [m], vx, vy [m/s] in the
         costmap frame of the next cycles; ``still`` (S, 2) [m]: points that may be people the
         tracker does not know (legs the laser sees where the map has nothing), kept at the same
         distance; ``remembered`` (R, 4): people seen longer ago (the global costmap's memory), only
-        for the rule that the robot does not back up toward a person behind it."""
-        self.planner.people = np.asarray(people, dtype=float).reshape(-1, 4)
+        for the rule that the robot does not back up toward a person behind it; ``approached`` (x,
+        y) [m]: where the person the robot is sent to stands (None: nobody), kept at
+        ``approach_person_distance`` when that is set (people_layer.approach_exemption)."""
+        p = self.params
+        people = np.asarray(people, dtype=float).reshape(-1, 4)
+        self.planner.people_distance = None
+        if approached is not None and p.approach_person_distance > 0.0:
+            self.planner.people_distance, still, _ = approach_exemption(
+                people, still, approached, p.approach_person_distance, p.min_person_distance)
+        self.planner.people = people
         self.planner.still_people = np.zeros((0, 2)) if still is None else np.asarray(still, float).reshape(-1, 2)
         self.planner.remembered_people = (np.zeros((0, 4)) if remembered is None
                                           else np.asarray(remembered, float).reshape(-1, 4))

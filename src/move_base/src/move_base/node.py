@@ -12,6 +12,10 @@ Actions:
 Subscribers:
     move_base_simple/goal (geometry_msgs/PoseStamped): a goal without status tracking.
     odom (nav_msgs/Odometry): the robot's velocity, for the local planner.
+    ~approach_target (geometry_msgs/PointStamped): where the person the robot is sent to stands
+        (approach_me_map, while its goal runs): she is kept at TrajectoryPlannerROS/
+        approach_person_distance instead of min_person_distance and is nobody to wait for; it lapses
+        APPROACH_TARGET_KEEP after the last message.
 
 Publishers:
     cmd_vel (geometry_msgs/Twist): velocity commands at controller_frequency; zero on every stop.
@@ -35,7 +39,7 @@ import actionlib
 import numpy as np
 import rospy
 import tf2_ros
-from geometry_msgs.msg import PoseStamped, Twist
+from geometry_msgs.msg import PointStamped, PoseStamped, Twist
 from move_base_msgs.msg import MoveBaseAction, MoveBaseActionGoal, MoveBaseFeedback, MoveBaseResult
 from nav_msgs.msg import Odometry, Path
 from nav_msgs.srv import GetPlan, GetPlanResponse
@@ -58,6 +62,7 @@ from move_base.people_layer import (
     GIVE_WAY_MAX_COST,
     GIVE_WAY_MIN_DISTANCE,
     RecentPoints,
+    approach_exemption,
     blocked_plan_reason,
     give_way_cells,
     near_walks,
@@ -76,6 +81,7 @@ LOG = "move_base: "
 GLOBAL_PLANNERS = ("navfn/NavfnROS", "NavfnROS")
 LOCAL_PLANNERS = ("base_local_planner/TrajectoryPlannerROS", "TrajectoryPlannerROS")
 RECOVERY_TYPES = ("ClearCostmapRecovery", "RotateRecovery")  # with or without their package prefix
+APPROACH_TARGET_KEEP = 1.5  # [s] an approach_target older than this lapses (approach_me_map sends it at 2 Hz)
 
 
 def _recovery_specs_problem(specs):
@@ -202,9 +208,11 @@ class ControllerAdapter:
             if len(remembered):
                 remembered = np.column_stack([pose2d.transform_points(to_local, remembered[:, :2]),
                                               np.zeros((len(remembered), 2))])
+        approached = node.approach_target(local.global_frame)
         with local.lock:
             if local.layered.people is not None:
-                node.local_planner.set_people(local.layered.people.current(rospy.get_time())[0], still, remembered)
+                node.local_planner.set_people(local.layered.people.current(rospy.get_time())[0], still, remembered,
+                                              approached)
             ok, cmd, reason = node.local_planner.compute_velocity(local.costmap, here, node.robot_velocity(),
                                                                   plan_local)
         stamp = rospy.Time.now()
@@ -239,6 +247,11 @@ class PeopleAdapter:
         """(B, 4) the tracked people and the unmapped leg-height returns (still) within ``radius`` [m]."""
         people = self._people()
         still = self.node.unmapped_near(pose, radius)
+        target = self.node.approach_target(self.node.planner_costmap.global_frame)
+        if target is not None:  # the person the robot is sent to is nobody to wait for or give way to
+            _, still, her = approach_exemption(people, still, target, 0.0, 0.0)
+            if her >= 0:
+                people = np.delete(people, her, axis=0)
         rows = [people[np.hypot(people[:, 0] - pose[0], people[:, 1] - pose[1]) <= radius],
                 np.column_stack([still, np.zeros((len(still), 2))])]
         return np.concatenate(rows).reshape(-1, 4), len(rows[0])
@@ -373,6 +386,9 @@ class MoveBaseNode:
         self.recent_still = RecentPoints(1.5)
         self._still_lock = threading.Lock()
         rospy.Subscriber("odom", Odometry, self._odom_cb, queue_size=1)
+        self._approach_target = None  # (PointStamped, ROS time [s] received)
+        self._approach_lock = threading.Lock()
+        rospy.Subscriber("~approach_target", PointStamped, self._approach_target_cb, queue_size=1)
 
         self.planner_costmap.start()
         self.controller_costmap.start()
@@ -462,6 +478,32 @@ class MoveBaseNode:
         t = msg.twist.twist
         with self._velocity_lock:
             self._velocity = (t.linear.x, t.linear.y, t.angular.z)
+
+    def _approach_target_cb(self, msg):
+        with self._approach_lock:
+            self._approach_target = (msg, rospy.get_time())
+
+    def approach_target(self, frame):
+        """(x, y) [m] in ``frame`` of the person the robot is sent to (``~approach_target``), or None
+        when nobody announced one within APPROACH_TARGET_KEEP, it is not finite or not transformable."""
+        with self._approach_lock:
+            held = self._approach_target
+        if held is None or rospy.get_time() - held[1] > APPROACH_TARGET_KEEP:
+            return None
+        msg = held[0]
+        xy = np.array([[msg.point.x, msg.point.y]], dtype=float)
+        if not np.all(np.isfinite(xy)):
+            rospy.logwarn_throttle(10.0, LOG + "approach_target is not finite: ignored")
+            return None
+        source = msg.header.frame_id or self.planner_costmap.global_frame
+        if source != frame:
+            tf = self.lookup_planar(frame, source, timeout=0.05)
+            if tf is None:
+                rospy.logwarn_throttle(10.0, LOG + f"approach_target's frame {source!r} cannot be transformed to "
+                                       f"{frame!r}: ignored")
+                return None
+            xy = pose2d.transform_points(tf, xy)
+        return float(xy[0, 0]), float(xy[0, 1])
 
     def robot_velocity(self):
         with self._velocity_lock:

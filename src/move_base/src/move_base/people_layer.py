@@ -273,7 +273,40 @@ def braking_positions(times, start, speed, acc):
     return start[0] + s * math.cos(start[2]), start[1] + s * math.sin(start[2])
 
 
-def approaches(points, times, people, min_distance, tolerance=0.01, brake=None, still=None):
+# The person the robot is sent to on purpose (approach_me_map's goal 0.5 m from the user): the tracked
+# person nearest the announced point within APPROACH_MATCH, and the leg-height returns within
+# APPROACH_LEGS of her (a seated person's shins reach 0.3-0.4 m in front of her centre, the chair's
+# legs round her) are hers, not strangers standing there.
+APPROACH_MATCH = 0.5  # [m]
+APPROACH_LEGS = 0.6  # [m]
+
+
+def approach_exemption(people, still, target, distance, min_distance):
+    """The local planner's distances for ``people`` (P, 4) when the robot is sent to the person at
+    ``target`` (x, y) [m] (None: nobody): (P,) ``min_distance`` [m] for everybody but the tracked
+    person nearest the target within APPROACH_MATCH, who gets ``distance`` [m]; and ``still`` (S, 2)
+    less the points within APPROACH_LEGS of her (of the target when nobody is tracked there: the
+    tracker may have lost her as the robot came close). Returns (distances (P,), still (S', 2), index of
+    her in ``people`` or -1)."""
+    people = np.asarray(people, dtype=float).reshape(-1, 4)
+    still = np.zeros((0, 2)) if still is None else np.asarray(still, dtype=float).reshape(-1, 2)
+    out = np.full(len(people), float(min_distance))
+    if target is None or not np.all(np.isfinite(target)):
+        return out, still, -1
+    tx, ty = float(target[0]), float(target[1])
+    index, cx, cy = -1, tx, ty
+    if len(people):
+        d = np.hypot(people[:, 0] - tx, people[:, 1] - ty)
+        i = int(np.argmin(d))
+        if d[i] <= APPROACH_MATCH:
+            index, cx, cy = i, people[i, 0], people[i, 1]
+            out[i] = float(distance)
+    if len(still):
+        still = still[np.hypot(still[:, 0] - cx, still[:, 1] - cy) > APPROACH_LEGS]
+    return out, still, index
+
+
+def approaches(points, times, people, min_distance, tolerance=0.01, brake=None, still=None, per_person=None):
     """Which trajectories bring the robot's centre nearer than ``min_distance`` [m] to a person
     than braking would: trajectory k is refused when at some step i its position is within
     ``min_distance`` of where a person will be at ``times[k, i]`` [s] (walking on at their
@@ -283,7 +316,9 @@ def approaches(points, times, people, min_distance, tolerance=0.01, brake=None, 
     are never refused, so a robot a person walked up to can always leave.
 
     ``points`` (K, T, >= 2) [m], ``times`` (K, T) [s] (np.inf past a trajectory's last step),
-    ``people`` (P, 4) (x, y, vx, vy); ``still`` (S, 2) [m] points that may be people standing (the
+    ``people`` (P, 4) (x, y, vx, vy); ``per_person`` (P,) [m]: each person's distance instead of
+    ``min_distance`` (the person approached on purpose: :func:`approach_exemption`; None: all
+    ``min_distance``); ``still`` (S, 2) [m] points that may be people standing (the
     legs of a person the tracker does not know), kept at ``min_distance`` - STILL_MARGIN (a leg is
     about 0.1 m from the person's centre, and nearest when the robot comes from the side, where
     the centre is then farther still). Returns a bool array (K,)."""
@@ -291,6 +326,8 @@ def approaches(points, times, people, min_distance, tolerance=0.01, brake=None, 
     out = np.zeros(points.shape[0], dtype=bool)
     people = np.asarray(people, dtype=float).reshape(-1, 4)
     still = np.zeros((0, 2)) if still is None else np.asarray(still, dtype=float).reshape(-1, 2)
+    per_person = np.full(len(people), float(min_distance)) if per_person is None else \
+        np.asarray(per_person, dtype=float).reshape(len(people))
     if (len(people) == 0 and len(still) == 0) or min_distance <= 0.0 or points.size == 0:
         return out
     t = np.asarray(times, dtype=float)
@@ -300,11 +337,13 @@ def approaches(points, times, people, min_distance, tolerance=0.01, brake=None, 
         bx, by = points[:, :1, 0], points[:, :1, 1]
     else:
         bx, by = braking_positions(t, brake[:3], brake[3], brake[4])
-    for px, py, vx, vy in people:
+    for (px, py, vx, vy), keep in zip(people, per_person, strict=True):
+        if keep <= 0.0:
+            continue
         qx, qy = px + vx * t, py + vy * t  # (K, T) the person at each step's time
         d = np.hypot(points[..., 0] - qx, points[..., 1] - qy)
         d0 = np.hypot(bx - qx, by - qy)
-        out |= np.any(valid & (d < min_distance) & (d < d0 - tolerance), axis=1)
+        out |= np.any(valid & (d < keep) & (d < d0 - tolerance), axis=1)
     if len(still):
         from scipy.spatial import cKDTree
 

@@ -125,6 +125,10 @@ PARAMS = ParamTable(
           "to a tracked person (walking on at their velocity), or nearer than this less 0.1 m to a leg-height "
           "return the maps do not explain, than braking would; braking, turning on the spot and moving away "
           "stay allowed (0: off, ROS)", unit="m", ge=0.0),
+    Param("approach_person_distance", float, 0.0, "Florence: the person the robot is sent to on purpose "
+          "(move_base's approach_target topic: approach_me_map's user) is kept this far instead of "
+          "min_person_distance, and the leg-height returns round her are hers (0: min_person_distance for her "
+          "too)", unit="m", ge=0.0),
 )
 """TrajectoryPlannerROS's parameters (``~TrajectoryPlannerROS/``: ROS names and defaults, plus
 Florence's three, off by default, which is ROS's behaviour)."""
@@ -626,6 +630,7 @@ class TrajectoryPlanner:
         self.people = np.zeros((0, 4))  # (P, 4) x, y [m], vx, vy [m/s] in the costmap frame (min_person_distance)
         self.still_people = np.zeros((0, 2))  # (S, 2) x, y [m]: what may be people the tracker does not know
         self.remembered_people = np.zeros((0, 4))  # (R, 4): people seen longer ago, only for backs_toward
+        self.people_distance = None  # (P,) [m] each person's min_person_distance (None: all the parameter's)
         self.refused_for_people = 0  # trajectories the last scoring refused for min_person_distance alone
         self._brake = None  # (x, y, yaw, vx, acc_lim_x) of the cycle: braking is never refused for people
         self._cost_without_people = None
@@ -803,7 +808,7 @@ class TrajectoryPlanner:
             index = np.arange(points.shape[1])[None, :]
             times = np.where(index < steps[:, None], index * np.asarray(dt, float).reshape(-1, 1), np.inf)
             near = approaches(points, times, self.people, p.min_person_distance, brake=self._brake,
-                              still=self.still_people)
+                              still=self.still_people, per_person=self.people_distance)
             # nor backing up toward a person behind (out of the sensors' view), the escape included
             # (its collision cost -1 would turn into a licence to back up)
             rear = np.vstack([self.people.reshape(-1, 4), self.remembered_people.reshape(-1, 4)])
