@@ -2,10 +2,12 @@
 simulated apartment, with the whole stack.
 
     source devel/setup.bash && nice -n 10 /usr/bin/python3 bench/locator.py [--runs 20] [--rtf 2] [--seed 1]
-        [--user-xy]
+        [--user-xy] [--no-people-layers]
 
 Starts what the robot runs (florence_eval.locator_session.launch_stack: turtlebot_2dnav_control.launch
-sim:=true with its user tracker, florence_locator.launch) on a private master. Each run places the user
+sim:=true with its user tracker and move_base's people layers, as shipped; florence_locator.launch) on a
+private master. --no-people-layers: move_base without them (the tracker started apart), as the locator
+was first built and measured against (reported apart). Each run places the user
 in a random room (standing or sitting, facing anywhere, at least 0.55 m from furniture and 0.6 m from
 the room's hotspot) and the robot in another room, tells the locator the user's room as a home
 sensor would (setUserPosRoom; --user-xy: the user's true pose through setUserPosXYPhi, help from
@@ -38,6 +40,8 @@ def main():
     parser.add_argument("--user-xy", action="store_true", help="tell the locator the user's true pose "
                         "(setUserPosXYPhi) instead of the room (setUserPosRoom): help from ground truth")
     parser.add_argument("--run-timeout", type=float, default=300.0, help="simulated seconds per gotoUser")
+    parser.add_argument("--no-people-layers", dest="people_layers", action="store_false",
+                        help="move_base without its people layers (not the shipped configuration)")
     args = parser.parse_args()
 
     from florence_eval.locator_session import LocatorSession, launch_stack, stop_stack
@@ -48,13 +52,13 @@ def main():
     from florence_eval import locator_bench
 
     RESULTS.mkdir(parents=True, exist_ok=True)
-    name = "locator_user_xy" if args.user_xy else "locator"
+    name = ("locator_user_xy" if args.user_xy else "locator") + ("" if args.people_layers else "_no_people_layers")
     rng = np.random.default_rng(args.seed)
     rooms = Rooms.load(map_file("apartment", "rooms.yaml"))
     master = RosMaster().start()
     os.environ.update({k: v for k, v in master.env().items() if k.startswith("ROS_")})
     start = rooms.hotspots["kitchen"].as_tuple()
-    procs = launch_stack(master, start, real_time_factor=args.rtf, seed=args.seed)
+    procs = launch_stack(master, start, real_time_factor=args.rtf, seed=args.seed, people_layers=args.people_layers)
     try:
         import rospy
         from map_server.node import msg_to_grid
@@ -84,6 +88,7 @@ def main():
         result = {
             **locator_bench.summarise(runs),
             "mode": "setUserPosXYPhi (ground truth)" if args.user_xy else "setUserPosRoom",
+            "move_base_people_layers": args.people_layers,
             "sim_time_s": session.sim_now() - sim0, "wall_time_s": time.monotonic() - wall0,
             "rtf_asked": args.rtf, "seed": args.seed, "load_average_1min_median": float(np.median(loads)) if loads
             else None,

@@ -32,13 +32,13 @@ from florence_eval.people_session import PeopleSession, _registered
 ROOMS = map_file("apartment", "rooms.yaml")
 
 
-def launch_stack(master, start, real_time_factor=2.0, seed=1, people=None, hotspots=None, people_layers=False):
+def launch_stack(master, start, real_time_factor=2.0, seed=1, people=None, hotspots=None, people_layers=True):
     """Start the navigation stack with florence_sim (``people``: a people file, None: nobody), the user
     tracker and the locator's nodes against ``master``; the robot (and amcl) at ``start`` (x, y, yaw).
     ``hotspots``: the locator's hotspots file (None: a copy of florence_locator's, in a temporary
     folder, so that setHotspot never writes the shipped one). ``people_layers``: move_base with its
-    people layers and the tracker from the navigation launch (the shipped configuration; gotoUser
-    fails there today, see below); False: without them and user_tracker.launch apart. Returns the
+    people layers and the tracker from the navigation launch (the shipped configuration); False:
+    without them and user_tracker.launch apart (as the locator was first built against). Returns the
     processes (the caller stops them, in reverse order)."""
     import rospkg
 
@@ -59,11 +59,10 @@ def launch_stack(master, start, real_time_factor=2.0, seed=1, people=None, hotsp
             raise RuntimeError(f"{proc.name} exited:\n{proc.output(3000)}")
 
     try:
-        # KNOWN DEFECT (issue 20 x 21): with move_base's people layers (people_tracking:=true, the shipped
-        # default) gotoUser to a user in the bedroom ended ABORTED, move_base oscillating near her until its
-        # recoveries gave up (2 runs of 2 on the merged stack, load 11-20; move_base keeps 0.6 m from people and
-        # approach_me_map asks for 0.5 m). The locator's tests and bench run move_base without them, with the
-        # tracker started apart, as the locator was built against; florence_bringup runs them.
+        # with move_base's people layers (people_tracking:=true, the shipped default), move_base keeps 0.6 m from
+        # people but only approach_person_distance (0.45 m) from the user approach_me_map announces on
+        # move_base/approach_target: before that, gotoUser to a user in the bedroom ended ABORTED, move_base
+        # oscillating near her until its recoveries gave up (2 runs of 2, load 11-20)
         procs.append(roslaunch(master, "turtlebot_control", "turtlebot_2dnav_control.launch", "sim:=true",
                                f"people:={people}", f"real_time_factor:={real_time_factor}", f"seed:={seed}",
                                f"x:={x}", f"y:={y}", f"yaw:={yaw}", f"people_tracking:={str(people_layers).lower()}"))
