@@ -518,3 +518,53 @@ def test_a_person_partly_hidden_keeps_their_track_on_their_line(flagged):
         assert track.velocity[1] > 0.3, track.velocity
     else:  # what the flag is for
         assert error > 0.35, error
+
+
+def seated_then_close(tracker, rng, posture="sitting", seconds=2.0):
+    """A person seated at (2, 1) facing west: 2 s of Kinect detections of her torso (``posture``) with
+    the laser seeing her shins 0.15 m in front of her (1.85, 1); then the robot comes close, the Kinect
+    loses her upper body, and for 3 s only the laser sees her shins. Returns her track's positions
+    over those 3 s."""
+    t, out = 0.0, []
+    for k in range(int(seconds * RATE)):
+        t = k / RATE
+        det = kinect(2.0, 1.0, RED, rng)
+        tracker.update(t, [Detection(det.x, det.y, KINECT, 0.08, RED, posture=posture)], KINECT)
+        tracker.update(t + 0.5 / RATE, [laser(1.85, 1.0, rng, free=False)], LASER)
+    for k in range(1, int(3 * RATE)):
+        tracker.update(t + k / RATE, [laser(1.85, 1.0, rng, free=False)], LASER)
+        (track,) = tracker.published()
+        out.append(track.position)
+    return np.array(out)
+
+
+def test_a_seated_person_stays_where_the_kinect_placed_her_when_only_her_shins_are_seen():
+    """The laser sees a seated person's shins in front of her: it keeps her track alive but does not
+    drag it onto her legs (the robot coming to her would end that much nearer). Standing, it moves
+    the track as before; with seated_reach 0 too."""
+    seated = seated_then_close(Tracker(), np.random.default_rng(6))
+    assert np.max(np.hypot(seated[:, 0] - 2.0, seated[:, 1] - 1.0)) < 0.04, seated[-1]
+    standing = seated_then_close(Tracker(), np.random.default_rng(6), posture="standing")
+    assert math.hypot(standing[-1, 0] - 1.85, standing[-1, 1] - 1.0) < 0.06, standing[-1]
+    off = seated_then_close(Tracker(TrackerParams(seated_reach=0.0)), np.random.default_rng(6))
+    assert math.hypot(off[-1, 0] - 1.85, off[-1, 1] - 1.0) < 0.06, off[-1]
+    # her top cut off by the image ("unknown") says nothing: still seated
+    unknown = Tracker()
+    seated_then_close(unknown, np.random.default_rng(6))
+    (track,) = unknown.published()
+    unknown.update(10.0, [Detection(2.0, 1.0, KINECT, 0.08, RED, posture="unknown")], KINECT)
+    assert track.seat is not None
+
+
+def test_a_seated_person_who_gets_up_and_walks_is_followed_by_the_laser():
+    rng = np.random.default_rng(7)
+    tracker = Tracker()
+    seated_then_close(tracker, rng)
+    (track,) = tracker.published()
+    assert track.seat is not None
+    t0 = tracker.tracks[0].last_update
+    for k in range(1, int(3 * RATE)):  # up and away along +y at 0.5 m/s, the laser alone seeing her
+        tracker.update(t0 + k / RATE, [laser(1.85, 1.0 + 0.5 * k / RATE, rng)], LASER)
+    (track,) = tracker.published()
+    assert track.seat is None
+    assert math.hypot(track.position[0] - 1.85, track.position[1] - (1.0 + 0.5 * (int(3 * RATE) - 1) / RATE)) < 0.15

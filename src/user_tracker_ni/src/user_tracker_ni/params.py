@@ -180,6 +180,11 @@ TRACKER = ParamTable(
           "Kinect frames that told a still user's facing before it is published ...", ge=1),
     Param("tracker/facing_agreement", float, TrackerParams.facing_agreement,
           "... and the length of the mean of their unit vectors (1: all agree)", ge=0, le=1),
+    Param("tracker/seated_frames", int, TrackerParams.seated_frames,
+          "Kinect detections in a row of a person sitting that make her place her seat ...", ge=1),
+    Param("tracker/seated_reach", float, TrackerParams.seated_reach,
+          "... and the laser's detections (her shins) or close sightings within this of the seat keep her "
+          "track there without moving it (0: off)", unit="m", ge=0),
 )
 
 FREE = ParamTable(

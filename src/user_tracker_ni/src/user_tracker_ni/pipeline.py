@@ -91,7 +91,7 @@ class Pipeline:
         yaw = math.atan2(base[1, 0], base[0, 0])
         camera_xy = (base @ np.asarray(camera_in_base, float)[:, 3])[:2]
         dets = [Detection(float(x), float(y), KINECT, KINECT_STD, p.signature, on_structure=bool(o),
-                          facing=None if p.facing is None else angles.wrap(p.facing + yaw),
+                          facing=None if p.facing is None else angles.wrap(p.facing + yaw), posture=p.posture,
                           **_partly_hidden(p.occluded, x, y, camera_xy))
                 for (x, y), p, o in zip(xy, people, on, strict=True)]
         self.tracker.update(t, dets, KINECT)

@@ -61,6 +61,16 @@ the colours of a track with a provisional id, the track is re-identified: it tak
 id its signature matches (one no other live track holds), and the provisional id, which never
 had a signature, is forgotten; with no match the provisional id becomes its own.
 
+Seated people (:attr:`Track.seat`): once ``seated_frames`` Kinect detections in a row said a
+track's person sits (depth_people: her top seen below sitting_top), the Kinect's place of her is
+her seat. The laser sees a seated person's shins and feet, in front of her (0.15 m in florence_sim,
+0.3-0.5 m for an adult on a chair), and close up the Kinect sees her legs or her near side
+(close sightings): those keep her track alive but do not move it while they lie within
+``seated_reach`` of the seat (the track stood where her legs are, and the robot coming to her
+came that much too near, or stood off from where it was asked to). A laser detection farther from
+the seat (she got up and walked), or a Kinect detection of her standing, ends it; one whose top the
+image cuts off ("unknown") says nothing.
+
 Facing (:attr:`Track.facing`): a person walking at ``facing_walk_speed`` or faster faces the way
 they walk; a still one faces the way the Kinect's detections said (depth_people: a seated
 person's shins in front of the torso), as the mean of their unit vectors, once
@@ -94,6 +104,7 @@ class Detection:
     free: bool | None = None  # laser only: in floor the laser saw free lately (free_space.py)
     on_structure: bool = False  # on thin static structure of the robot's map (static_map.py)
     facing: float | None = None  # [rad] which way the person faces, in the fixed frame (Kinect, seated people)
+    posture: str | None = None  # Kinect: "sitting", "standing" or "unknown" (depth_people); None: not told
     # a person partly hidden (the Kinect's visible side, the laser's lone leg): the range is good, the side
     # is not. Standard deviation [m] across the line of sight, and that line's direction (x, y) from the
     # sensor in the fixed frame; std along it
@@ -143,6 +154,8 @@ class TrackerParams:
     facing_walk_speed: float = 0.3  # [m/s] a person this fast faces the way they walk
     facing_frames: int = 3  # Kinect frames that told a still person's facing before it is published ...
     facing_agreement: float = 0.6  # ... and the length of the mean of their unit vectors (1: all agree)
+    seated_frames: int = 2  # Kinect detections in a row of a person sitting that make her place her seat ...
+    seated_reach: float = 0.45  # [m] ... and the laser's (or a close sighting's) within this do not move her (0: off)
 
     def validate(self):
         for name in ("kinect_gate", "laser_gate", "laser_confirm_distance", "timeout", "tentative_timeout",
@@ -164,6 +177,8 @@ class TrackerParams:
             raise ValueError("need appearance_weight >= 0, 0 < appearance_gate <= 1, appearance_after >= 1")
         if not self.facing_walk_speed > 0 or self.facing_frames < 1 or not 0 <= self.facing_agreement <= 1:
             raise ValueError("need facing_walk_speed > 0, facing_frames >= 1 and 0 <= facing_agreement <= 1")
+        if self.seated_frames < 1 or not self.seated_reach >= 0:
+            raise ValueError("need seated_frames >= 1 and seated_reach >= 0")
         if not 0 < self.reid_threshold <= 1:
             raise ValueError(f"reid_threshold must be in (0, 1], got {self.reid_threshold}")
         return self
@@ -199,6 +214,8 @@ class Track:
     superseded: bool = False  # a newer track of the same person took its persistent id over
     facing_sum: np.ndarray = field(default_factory=lambda: np.zeros(2))  # sum of the facings' unit vectors ...
     facing_count: int = 0  # ... and how many, since the person last walked
+    sitting_count: int = 0  # Kinect detections in a row that said the person sits
+    seat: tuple | None = None  # (x, y) [m] where the Kinect placed her sitting (module docstring), None: not seated
 
     @property
     def confirmed(self):
@@ -285,7 +302,8 @@ class Tracker:
         if not (np.isfinite(det.x) and np.isfinite(det.y)) or det.on_structure:
             return
         track.filter.predict(t)
-        track.filter.update((det.x, det.y), det.noise, det.tells_velocity)
+        if not self._at_seat(track, det):
+            track.filter.update((det.x, det.y), det.noise, det.tells_velocity)
         track.last_update = t
         track.updated = (track.position, track.velocity)
         track.standing = False
@@ -383,9 +401,23 @@ class Tracker:
         self._maybe_confirm(track, t)
 
     def _apply(self, track, det, t, source):
-        track.filter.update((det.x, det.y), det.noise, det.tells_velocity)
+        if not (source == LASER and self._at_seat(track, det)):
+            track.filter.update((det.x, det.y), det.noise, det.tells_velocity)
         self._record(track, det, t, source)
         self._maybe_confirm(track, t)
+
+    def _at_seat(self, track, det):
+        """Whether ``det`` (the laser's, or a close sighting) is a seated person's legs: within
+        seated_reach of her seat. Then her track stands at the seat; farther, she is not seated any
+        more (module docstring)."""
+        if track.seat is None:
+            return False
+        if float(np.hypot(det.x - track.seat[0], det.y - track.seat[1])) <= self.params.seated_reach:
+            x, y = track.seat
+            track.filter.stand(x, y, vel_std=0.1)
+            return True
+        track.seat, track.sitting_count = None, 0
+        return False
 
     def _crowded(self, track, det):
         """Another track within ``signature_clearance`` of the detection: the Kinect may have seen
@@ -406,6 +438,12 @@ class Tracker:
         if source == KINECT:
             track.last_kinect = t
             track.kinect_hits += 1
+            if det.posture == "sitting":
+                track.sitting_count += 1
+                if track.sitting_count >= self.params.seated_frames and self.params.seated_reach > 0:
+                    track.seat = tuple(float(v) for v in track.position)
+            elif det.posture == "standing":  # "unknown" (her top cut off by the image) says nothing
+                track.sitting_count, track.seat = 0, None
             if det.facing is not None and math.isfinite(det.facing):
                 track.facing_sum = track.facing_sum + np.array([math.cos(det.facing), math.sin(det.facing)])
                 track.facing_count += 1
