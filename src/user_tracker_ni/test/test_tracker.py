@@ -557,14 +557,18 @@ def test_a_seated_person_stays_where_the_kinect_placed_her_when_only_her_shins_a
 
 
 def test_a_seated_person_who_gets_up_and_walks_is_followed_by_the_laser():
+    """Her track, not a new one: the seat's reach is within the laser's gate, so her legs leaving
+    it are still hers (with a reach beyond the gate her track stood at the seat until dropped)."""
     rng = np.random.default_rng(7)
     tracker = Tracker()
     seated_then_close(tracker, rng)
-    (track,) = tracker.published()
-    assert track.seat is not None
-    t0 = tracker.tracks[0].last_update
+    (seated,) = tracker.published()
+    assert seated.seat is not None
+    t0 = seated.last_update
     for k in range(1, int(3 * RATE)):  # up and away along +y at 0.5 m/s, the laser alone seeing her
         tracker.update(t0 + k / RATE, [laser(1.85, 1.0 + 0.5 * k / RATE, rng)], LASER)
-    (track,) = tracker.published()
-    assert track.seat is None
-    assert math.hypot(track.position[0] - 1.85, track.position[1] - (1.0 + 0.5 * (int(3 * RATE) - 1) / RATE)) < 0.15
+    end = (1.85, 1.0 + 0.5 * (int(3 * RATE) - 1) / RATE)
+    assert tracker.published() == [seated]
+    assert seated.seat is None and math.hypot(seated.position[0] - end[0], seated.position[1] - end[1]) < 0.15
+    with pytest.raises(ValueError, match="laser_gate"):  # a reach at the gate: her track would stand at the seat
+        TrackerParams(seated_reach=TrackerParams.laser_gate).validate()

@@ -184,7 +184,7 @@ TRACKER = ParamTable(
           "Kinect detections in a row of a person sitting that make her place her seat ...", ge=1),
     Param("tracker/seated_reach", float, TrackerParams.seated_reach,
           "... and the laser's detections (her shins) or close sightings within this of the seat keep her "
-          "track there without moving it (0: off)", unit="m", ge=0),
+          "track there without moving it (0: off; less than tracker/laser_gate)", unit="m", ge=0),
 )
 
 FREE = ParamTable(

@@ -63,13 +63,13 @@ had a signature, is forgotten; with no match the provisional id becomes its own.
 
 Seated people (:attr:`Track.seat`): once ``seated_frames`` Kinect detections in a row said a
 track's person sits (depth_people: her top seen below sitting_top), the Kinect's place of her is
-her seat. The laser sees a seated person's shins and feet, in front of her (0.15 m in florence_sim,
-0.3-0.5 m for an adult on a chair), and close up the Kinect sees her legs or her near side
-(close sightings): those keep her track alive but do not move it while they lie within
-``seated_reach`` of the seat (the track stood where her legs are, and the robot coming to her
-came that much too near, or stood off from where it was asked to). A laser detection farther from
-the seat (she got up and walked), or a Kinect detection of her standing, ends it; one whose top the
-image cuts off ("unknown") says nothing.
+her seat. The laser sees a seated person's shins and feet in front of her (0.135 m in florence_sim
+for its user of build 0.9; 0.3-0.5 m for an adult on a chair), and close up the Kinect sees her
+legs or her near side (close sightings): without the seat, the track stood where her legs are,
+and the robot coming to her came that much too near. Those keep her track alive but do not move it
+while they lie within ``seated_reach`` of the seat (less than ``laser_gate``: her legs walking off
+must stay hers). A laser detection farther from the seat (she got up and walked), or a Kinect
+detection of her standing, ends it; one whose top the image cuts off ("unknown") says nothing.
 
 Facing (:attr:`Track.facing`): a person walking at ``facing_walk_speed`` or faster faces the way
 they walk; a still one faces the way the Kinect's detections said (depth_people: a seated
@@ -155,7 +155,7 @@ class TrackerParams:
     facing_frames: int = 3  # Kinect frames that told a still person's facing before it is published ...
     facing_agreement: float = 0.6  # ... and the length of the mean of their unit vectors (1: all agree)
     seated_frames: int = 2  # Kinect detections in a row of a person sitting that make her place her seat ...
-    seated_reach: float = 0.45  # [m] ... and the laser's (or a close sighting's) within this do not move her (0: off)
+    seated_reach: float = 0.3  # [m] ... and the laser's (or a close sighting's) within this do not move her (0: off)
 
     def validate(self):
         for name in ("kinect_gate", "laser_gate", "laser_confirm_distance", "timeout", "tentative_timeout",
@@ -177,8 +177,9 @@ class TrackerParams:
             raise ValueError("need appearance_weight >= 0, 0 < appearance_gate <= 1, appearance_after >= 1")
         if not self.facing_walk_speed > 0 or self.facing_frames < 1 or not 0 <= self.facing_agreement <= 1:
             raise ValueError("need facing_walk_speed > 0, facing_frames >= 1 and 0 <= facing_agreement <= 1")
-        if self.seated_frames < 1 or not self.seated_reach >= 0:
-            raise ValueError("need seated_frames >= 1 and seated_reach >= 0")
+        if self.seated_frames < 1 or not 0 <= self.seated_reach < self.laser_gate:
+            raise ValueError("need seated_frames >= 1 and 0 <= seated_reach < laser_gate (her legs walking off the "
+                             "seat must still be within the laser's gate of her track)")
         if not 0 < self.reid_threshold <= 1:
             raise ValueError(f"reid_threshold must be in (0, 1], got {self.reid_threshold}")
         return self
