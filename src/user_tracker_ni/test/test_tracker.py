@@ -548,6 +548,13 @@ def test_a_seated_person_stays_where_the_kinect_placed_her_when_only_her_shins_a
     assert math.hypot(standing[-1, 0] - 1.85, standing[-1, 1] - 1.0) < 0.06, standing[-1]
     off = seated_then_close(Tracker(TrackerParams(seated_reach=0.0)), np.random.default_rng(6))
     assert math.hypot(off[-1, 0] - 1.85, off[-1, 1] - 1.0) < 0.06, off[-1]
+    # a track walking at 0.5 m/s that the Kinect says sits (a short person, a misjudged top) gets no seat
+    walker, rng = Tracker(), np.random.default_rng(8)
+    for k in range(int(2 * RATE)):
+        det = kinect(1.0 + 0.5 * k / RATE, 1.0, RED, rng)
+        walker.update(k / RATE, [Detection(det.x, det.y, KINECT, 0.08, RED, posture="sitting")], KINECT)
+    (track,) = walker.published()
+    assert track.sitting_count > 2 and track.seat is None
     # her top cut off by the image ("unknown") says nothing: still seated
     unknown = Tracker()
     seated_then_close(unknown, np.random.default_rng(6))

@@ -61,15 +61,16 @@ the colours of a track with a provisional id, the track is re-identified: it tak
 id its signature matches (one no other live track holds), and the provisional id, which never
 had a signature, is forgotten; with no match the provisional id becomes its own.
 
-Seated people (:attr:`Track.seat`): once ``seated_frames`` Kinect detections in a row said a
-track's person sits (depth_people: her top seen below sitting_top), the Kinect's place of her is
-her seat. The laser sees a seated person's shins and feet in front of her (0.135 m in florence_sim
-for its user of build 0.9; 0.3-0.5 m for an adult on a chair), and close up the Kinect sees her
-legs or her near side (close sightings): without the seat, the track stood where her legs are,
-and the robot coming to her came that much too near. Those keep her track alive but do not move it
-while they lie within ``seated_reach`` of the seat (less than ``laser_gate``: her legs walking off
-must stay hers). A laser detection farther from the seat (she got up and walked), or a Kinect
-detection of her standing, ends it; one whose top the image cuts off ("unknown") says nothing.
+Seated people (:attr:`Track.seat`): once ``seated_frames`` Kinect detections in a row said a track's
+person sits (depth_people: her top seen below sitting_top) and her track is slower than
+``facing_walk_speed``, the Kinect's place of her is her seat. The laser sees a seated person's shins
+and feet in front of her (0.135 m in florence_sim for its user of build 0.9; 0.3-0.5 m for an adult
+on a chair), and close up the Kinect sees her legs or her near side (close sightings): without the
+seat, the track stood where her legs are, and the robot coming to her came that much too near. Those
+keep her track alive but do not move it while they lie within ``seated_reach`` of the seat (less
+than ``laser_gate``: her legs walking off must stay hers). A laser detection farther from the seat
+(she got up and walked), or a Kinect detection of her standing, ends it; one whose top the image
+cuts off ("unknown") says nothing.
 
 Facing (:attr:`Track.facing`): a person walking at ``facing_walk_speed`` or faster faces the way
 they walk; a still one faces the way the Kinect's detections said (depth_people: a seated
@@ -441,7 +442,10 @@ class Tracker:
             track.kinect_hits += 1
             if det.posture == "sitting":
                 track.sitting_count += 1
-                if track.sitting_count >= self.params.seated_frames and self.params.seated_reach > 0:
+                slow = float(np.hypot(*track.velocity)) < self.params.facing_walk_speed  # nobody walks seated
+                if not slow:
+                    track.seat = None
+                elif track.sitting_count >= self.params.seated_frames and self.params.seated_reach > 0:
                     track.seat = tuple(float(v) for v in track.position)
             elif det.posture == "standing":  # "unknown" (her top cut off by the image) says nothing
                 track.sitting_count, track.seat = 0, None
