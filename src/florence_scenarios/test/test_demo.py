@@ -8,13 +8,15 @@ import sys
 
 import pytest
 
-# The steps that hold. gotoUser, follow_me and approach_me are left out. On 27 Nov (afternoon, after 379fb0e and
-# 4e6a2ae) follow_me kept the user 100 % of the walk in 5 runs of 5 and approach_me passed in 3 of 3 days, but
-# gotoUser's facing check failed in 2 full days of 4 (24 and 28 deg off against 20; in the second the tracker
-# placed the seated user 0.24 m from her centre), and follow_me and approach_me need gotoUser's end to start from:
-# a product defect of issues 18 and 20, which `make demo` reports (it exits 1) and this test must not hide by
-# retrying.
-DAY_STEPS = "user_room,bad_input,goto_kitchen,hotspot,override,tracker_killed"
+# The steps that hold: all but approach_me. On 29 Nov (after the move_base rule for the user approach_me_map
+# announces and user_tracker_ni's seated-user rule) gotoUser and follow_me passed every check in the 7 full days run
+# with the shipped settings on a 2-core machine (6 with those rules: gotoUser 10-12 s, 0.52-0.54 m from her;
+# follow_me 100 % of the walk); approach_me ended 0.17 and 0.18 m from the asked place in 2 days of 12 against the
+# check's 0.15 m: the user sat down 1 m in front of
+# the robot that followed her, where the Kinect cannot see her seated, and the laser places her on her legs, 0.135 m
+# in front of her. A product defect of issue 19, which `make demo` reports (it exits 1) and this test must not hide
+# by retrying.
+DAY_STEPS = "user_room,bad_input,goto_user,follow,goto_kitchen,hotspot,override,tracker_killed"
 
 
 @pytest.mark.scenario
