@@ -2,7 +2,7 @@
 user_tracker.launch, florence_locator.launch), called as a client would and judged by the
 simulator's ground truth: gotoRoom to every room, getRobotPosRoom in each, gotoUser to a user
 sitting in the living room from the kitchen, setUserPosRoom("bedroom") from a home sensor and
-gotoUser finding the user there, the user absent (a full turn, ABORTED), manualOverride stopping
+gotoUser finding the user there, the user absent (a full turn in two places, ABORTED), manualOverride stopping
 the robot mid-route and teleop driving it then.
 
 One stack for the module (its start-up costs most); the tests run in file order. A test that needs the
@@ -15,6 +15,7 @@ as much simulated time as on the robot. The long variants (random placements) ar
 import math
 import time
 
+import numpy as np
 import pytest
 
 from florence_common import angles
@@ -144,7 +145,7 @@ def test_set_user_pos_room_from_a_home_sensor_then_goto_user_finds_the_user_ther
     goto_user_and_judge(session, procs, "bedroom")
 
 
-def test_user_absent_aborts_after_a_full_turn(stack):
+def test_user_absent_aborts_after_a_full_turn_in_two_places(stack):
     from florence_eval import locator_metrics
 
     session, procs = stack
@@ -155,14 +156,27 @@ def test_user_absent_aborts_after_a_full_turn(stack):
     t0 = session.sim_now()
     res, done, took = session.goto_user()  # the user's room is the robot's: no drive, the search at once
     assert res.success and "already in bedroom" in res.message, res.message
-    assert done.status == "ABORTED" and "found nobody" in done.message, f"{done.message}{dump(procs)}"
+    assert done.status == "ABORTED" and "found nobody in a full turn at" in done.message, f"{done.message}{dump(procs)}"
     track = session.track(t0)
-    net, total = locator_metrics.turned(track, signed=True), locator_metrics.turned(track)
-    detail = f"turned {math.degrees(net):.0f} deg net, {math.degrees(total):.0f} deg in all"
-    assert math.radians(330) <= net <= math.radians(400), detail  # a full turn, counter-clockwise
-    assert total <= net + math.radians(60), detail  # without turning back and forth
-    assert took < 60.0, f"the search took {took:.0f} s"
-    print(f"user absent: {detail}, ABORTED after {took:.1f} simulated s")
+    start, end = track[0, 1:3], track[-1, 1:3]
+    # the first search: a full turn counter-clockwise where the robot stood, without turning back and forth
+    left = np.flatnonzero(np.hypot(*(track[:, 1:3] - start).T) > 0.15)
+    assert len(left), "the robot never left the place of the first search"
+    first = track[:left[0]]
+    net, total = locator_metrics.turned(first, signed=True), locator_metrics.turned(first)
+    detail = f"first search: turned {math.degrees(net):.0f} deg net, {math.degrees(total):.0f} deg in all"
+    assert math.radians(330) <= net <= math.radians(400), detail
+    assert total <= net + math.radians(60), detail
+    # then a second place in the bedroom, away from the first, and a full turn there too
+    moved = math.hypot(*(end - start))
+    assert moved > 1.5 and session.call("getRobotPosRoom").room == "bedroom", f"moved {moved:.2f} m"
+    arrived = np.flatnonzero(np.hypot(*(track[:, 1:3] - end).T) > 0.15)[-1]
+    second = locator_metrics.turned(track[arrived:])
+    assert second >= math.radians(330), f"turned {math.degrees(second):.0f} deg at the second place"
+    assert " and (" in done.message, done.message  # both places named
+    assert took < 150.0, f"the two searches took {took:.0f} s"
+    print(f"user absent: {detail}; {moved:.2f} m to a second place, {math.degrees(second):.0f} deg there; "
+          f"ABORTED after {took:.1f} simulated s")
 
 
 def test_manual_override_stops_the_robot_within_a_second_and_teleop_drives_it(stack):

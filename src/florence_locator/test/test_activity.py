@@ -165,11 +165,7 @@ def test_somebody_seen_in_the_users_room_on_the_way_ends_the_drive(loc):
 
 
 def test_a_sighting_at_a_wall_or_a_doorway_does_not_count(loc):
-    from florence_locator.places import FloorMap
-    from map_server.mapfile import load_map
-
-    grid = load_map(map_file("apartment", "apartment.yaml"))
-    loc.floor = FloorMap(grid.data, grid.origin, grid.resolution)
+    loc.floor = _floor()
     run_to_search(loc)
     assert loc.sighted(4.9, 2.0, 1.0) == []  # at the wall to the kitchen
     assert loc.sighted(2.4, 5.3, 1.0) == []  # in the doorway to the corridor
@@ -183,6 +179,68 @@ def test_nobody_found_aborts(loc):
     loc.phase_status("ACTIVE", 1.0)
     loc.phase_status("ABORTED", 30.0)
     assert loc.status()[0] == ABORTED and "found nobody" in loc.status()[1]
+
+
+def _floor():
+    from florence_locator.places import FloorMap
+    from map_server.mapfile import load_map
+
+    grid = load_map(map_file("apartment", "apartment.yaml"))
+    return FloorMap(grid.data, grid.origin, grid.resolution)
+
+
+def test_nobody_found_searches_again_from_a_second_place_then_aborts(loc):
+    from florence_locator.places import contains
+
+    loc.floor, loc.search_spots = _floor(), 2
+    commands = run_to_search(loc)  # to the living room's hotspot
+    aid = commands[0].activity
+    assert names(loc.goal_done(aid, SUCCEEDED, "Goal reached.", LIVING, 20.0)) == [("search", True)]
+    loc.phase_status("ACTIVE", 21.0)
+    after = loc.phase_status("ABORTED", 40.0, Pose(1.25, 3.05, 2.0))  # a full turn at the hotspot: nobody
+    assert [c.name for c in after] == ["send_goal"] and after[0].activity == aid
+    x, y, phi = after[0].args
+    assert contains(loc.rooms.polygons["living_room"], x, y)
+    assert math.hypot(x - 1.25, y - 3.05) == pytest.approx(loc.lookout_reach, abs=0.3)
+    assert loc.floor.problem(x, y, loc.lookout_clearance) is None
+    assert abs(math.remainder(math.atan2(3.05 - y, 1.25 - x) - phi, math.tau)) < 1e-6  # facing the first place
+    assert loc.status()[0] == ACTIVE and loc.activity.phase == NAVIGATE and "search again" in loc.status()[1]
+    assert "nobody in a full turn at (1.25, 3.05)" in loc.status()[1]
+    assert names(loc.goal_done(aid, SUCCEEDED, "Goal reached.", Pose(x, y, phi), 50.0)) == [("search", True)]
+    assert "next place to search" in loc.status()[1]
+    assert names(loc.phase_status("ABORTED", 70.0, Pose(x, y, phi))) == [("search", False)]  # the last place
+    state, text = loc.status()
+    assert state == ABORTED and "found nobody in a full turn at (1.25, 3.05) and" in text
+
+
+def test_the_second_search_finds_the_user(loc):
+    loc.floor, loc.search_spots = _floor(), 2
+    run_to_search(loc, robot=Pose(3.0, 4.0, 0.0))  # in the living room already
+    after = loc.phase_status("ABORTED", 30.0, Pose(3.0, 4.0, 0.5))
+    loc.goal_done(after[0].activity, SUCCEEDED, "Goal reached.", Pose(*after[0].args), 40.0)
+    loc.detected(3.3, 4.4, 45.0)  # sitting 0.5 m from where the robot turned first
+    assert loc.activity.phase == APPROACH
+    loc.phase_status("SUCCEEDED", 60.0)
+    assert loc.status()[0] == SUCCEEDED
+
+
+def test_without_the_map_or_a_room_one_search_is_all(loc):
+    loc.search_spots = 2  # no map: nowhere to go
+    run_to_search(loc, robot=Pose(3.0, 4.0, 0.0))
+    assert names(loc.phase_status("ABORTED", 30.0, Pose(3.0, 4.0, 0.0))) == [("search", False)]
+    assert loc.status()[0] == ABORTED
+    loc.floor, loc.user = _floor(), None  # the robot outside every room, the user's position unknown
+    ok, _message, _commands = loc.goto_user(Pose(-5.0, -5.0, 0.0), 40.0)
+    assert ok and names(loc.phase_status("ABORTED", 70.0, Pose(-5.0, -5.0, 0.0))) == [("search", False)]
+    assert loc.status()[0] == ABORTED and "found nobody" in loc.status()[1]
+
+
+def test_a_second_place_not_reached_searches_where_the_robot_stopped_in_the_room(loc):
+    loc.floor, loc.search_spots = _floor(), 2
+    run_to_search(loc, robot=Pose(3.0, 4.0, 0.0))
+    after = loc.phase_status("ABORTED", 30.0, Pose(3.0, 4.0, 0.0))
+    assert names(loc.goal_done(after[0].activity, ABORTED, "blocked", Pose(2.0, 3.0, 0.0), 40.0)) == [("search", True)]
+    assert "next place to search was not reached" in loc.status()[1]
 
 
 def test_approach_failure_aborts_and_preempted_answers_are_ignored(loc):

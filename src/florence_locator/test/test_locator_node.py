@@ -349,14 +349,20 @@ def test_goto_user_in_the_same_room_skips_the_drive_and_nobody_found_aborts(syst
     n_goals = len(mock.goals)
     with base.lock:
         turned0 = base.turned
+    first = _call("getRobotPosXYPhi")
     res = _call("gotoUser")  # the user was last seen in the living room, where the robot is
     assert res.success and "already in living_room" in res.message, res.message
-    done = _wait_status({"SUCCEEDED", "ABORTED"}, 90, system)
+    done = _wait_status({"SUCCEEDED", "ABORTED"}, 120, system)
     assert done.status == "ABORTED" and "found nobody" in done.message, done.message
-    assert len(mock.goals) == n_goals  # no drive, no approach
+    # no drive to the hotspot; a full turn there, one drive to a second place in the room, a full turn there
+    assert len(mock.goals) == n_goals + 1, mock.goals[n_goals:]
+    x, y, _phi = mock.goals[-1][:3]
+    assert _call("getRobotPosRoom").room == "living_room"
+    assert math.hypot(x - first.x, y - first.y) > 1.5
+    assert f"({first.x:.2f}, {first.y:.2f}) and ({x:.2f}, {y:.2f})" in done.message, done.message
     with base.lock:
         turned = base.turned - turned0
-    assert math.degrees(turned) == pytest.approx(360, abs=15)
+    assert math.degrees(turned) == pytest.approx(720, abs=30)
 
 
 def test_manual_override_aborts_and_refuses_until_false(system, publisher):

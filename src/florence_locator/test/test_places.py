@@ -198,3 +198,51 @@ def test_floor_map_of_the_apartment_accepts_the_shipped_hotspots():
     for label, spot in rooms.hotspots.items():
         assert floor.problem(spot.x, spot.y, clearance=0.15) is None, label
     assert "inside a wall" in floor.problem(5.0, 0.8)  # the living room | kitchen wall
+
+
+def _room_with_a_cupboard():
+    """A free 4 x 3 m room at 5 cm (walls all round) with a cupboard at x 2.0 .. 2.5, y 0.5 .. 2.5."""
+    data = np.zeros((60, 80), dtype=int)
+    data[0, :] = data[-1, :] = data[:, 0] = data[:, -1] = 100
+    data[10:50, 40:50] = 100
+    return FloorMap(data, (0.0, 0.0, 0.0), 0.05), [[0.0, 0.0], [4.0, 0.0], [4.0, 3.0], [0.0, 3.0]]
+
+
+def test_line_of_sight_stops_at_obstacles():
+    floor, _room = _room_with_a_cupboard()
+    seen = floor.line_of_sight([[1.0, 1.5], [1.0, 2.8], [3.5, 1.5]], (3.5, 2.8))
+    assert seen.tolist() == [False, True, True]  # the cupboard is between (1.0, 1.5) and (3.5, 2.8)
+
+
+def test_lookout_sees_the_searched_place_from_the_reach_away_in_the_open():
+    floor, room = _room_with_a_cupboard()
+    spot = floor.lookout(room, [(1.0, 1.5)], reach=1.0, clearance=0.45)
+    assert math.hypot(spot.x - 1.0, spot.y - 1.5) == pytest.approx(1.0, abs=0.15)
+    assert floor.problem(spot.x, spot.y, 0.45) is None
+    assert math.atan2(1.5 - spot.y, 1.0 - spot.x) == pytest.approx(spot.phi)
+    assert floor.line_of_sight([[spot.x, spot.y]], (1.0, 1.5))[0]
+    # behind the cupboard is out of sight: the farthest visible place from (1.0, 1.5) at a long reach
+    far = floor.lookout(room, [(1.0, 1.5)], reach=10.0, clearance=0.45)
+    assert floor.line_of_sight([[far.x, far.y]], (1.0, 1.5))[0] and not (2.0 <= far.x <= 2.5)
+    # two places searched: away from both
+    two = floor.lookout(room, [(1.0, 1.5), (3.3, 1.5)], reach=1.5, clearance=0.45)
+    assert min(math.hypot(two.x - 1.0, two.y - 1.5), math.hypot(two.x - 3.3, two.y - 1.5)) > 1.0
+
+
+def test_lookout_refuses_a_room_with_no_open_place():
+    floor, room = _room_with_a_cupboard()
+    assert floor.lookout(room, [(1.0, 1.5)], clearance=2.0) is None
+    assert floor.lookout(room, [], clearance=0.45) is None
+    assert floor.lookout([[10.0, 10.0], [11.0, 10.0], [11.0, 11.0]], [(1.0, 1.5)]) is None  # off the map
+
+
+def test_lookouts_of_the_apartment_are_in_their_rooms_and_open():
+    from map_server.mapfile import load_map
+
+    grid = load_map(map_file("apartment", "apartment.yaml"))
+    floor = FloorMap(grid.data, grid.origin, grid.resolution)
+    rooms = Rooms.load(map_file("apartment", "rooms.yaml"))
+    for label, spot in rooms.hotspots.items():
+        look = floor.lookout(rooms.polygons[label], [(spot.x, spot.y)])
+        assert rooms.room_at(look.x, look.y) == label and floor.problem(look.x, look.y, 0.45) is None, label
+        assert math.hypot(look.x - spot.x, look.y - spot.y) > 1.3, label  # the Kinect sees a seated person there

@@ -21,7 +21,10 @@ goal). gotoUser is ACTIVE through its phases:
    robot is in that room already, or when the user's room is unknown). A failed leg that still
    ends in the user's room goes on with the search;
 2. ``search``: detect_users turns in 45 degree steps (its status ACTIVE, then either a
-   ``/detected_user`` or ABORTED after a full turn);
+   ``/detected_user`` or ABORTED after a full turn). A full turn with nobody sends the robot to
+   another place in the room to search again (``search_spots`` places in all; see
+   places.FloorMap.lookout): close to where it turned, the Kinect does not see a seated person,
+   and furniture hides others. ``navigate`` and ``search`` then run again;
 3. ``approach``: approach_me_map goes to a polite pose near the user (ACTIVE, then SUCCEEDED or
    ABORTED), which ends gotoUser with the same state.
 
@@ -72,6 +75,7 @@ class Activity:
     phase_started: float = 0.0
     heard: float = 0.0  # [s] the phase's node last sent a status
     notes: list = field(default_factory=list)
+    searched: list = field(default_factory=list)  # gotoUser: (x, y) [m] of every full turn with nobody
 
     def describe(self):
         phase = f" [{self.phase}]" if self.phase and self.state in RUNNING else ""
@@ -84,7 +88,7 @@ class Locator:
     returns what the node must do (a list of :class:`Command`); calls also return (ok, message)."""
 
     def __init__(self, rooms, hotspots, floor=None, timeouts=None, hotspot_clearance=0.15, sighting_margin=0.5,
-                 sighting_clearance=0.25):
+                 sighting_clearance=0.25, search_spots=1, lookout_reach=2.5, lookout_clearance=0.45):
         self.rooms, self.hotspots = rooms, hotspots
         self.floor = floor  # places.FloorMap, or None until the map comes
         self.timeouts = timeouts or Timeouts()
@@ -92,6 +96,9 @@ class Locator:
         # [m] a person seen on the way counts this far inside the user's room and from the map's obstacles (the
         # tracker's ghosts sit on door frames and furniture edges: 0.14 m from a door frame in florence_sim)
         self.sighting_margin, self.sighting_clearance = sighting_margin, sighting_clearance
+        # gotoUser searches from up to this many places of the user's room (1: the seed's one full turn)
+        self.search_spots = max(1, int(search_spots))
+        self.lookout_reach, self.lookout_clearance = lookout_reach, lookout_clearance  # places.FloorMap.lookout
         self.user = None  # Pose of the user, None until some sensor says where
         self.user_source = ""
         self.override = False
@@ -208,7 +215,7 @@ class Locator:
         robot_room = self.room_of(robot) if robot is not None else None
         navigate = self.user is not None and user_room not in (UNKNOWN, robot_room)
         a, commands = self._start(GOTO_USER, "the user", now, sends_goal=navigate)
-        a.room = user_room
+        a.room = user_room if user_room != UNKNOWN or robot is None else self.room_of(robot)
         if self.user is None or user_room == UNKNOWN:
             where = "not known" if self.user is None else f"outside every room ({self.user.x:.2f}, {self.user.y:.2f})"
             a.notes.append(f"the user's position is {where}: searching from here")
@@ -245,10 +252,11 @@ class Locator:
             return self._end(a, state, words, cancel_goal=False)
         if a.phase != NAVIGATE:
             return []
+        place = "the next place to search" if a.searched else "the hotspot"
         if state == SUCCEEDED:
-            return self._phase(a, SEARCH, now, f"at the hotspot of {a.room}; searching for the user (detect_users)")
+            return self._phase(a, SEARCH, now, f"at {place} of {a.room}; searching for the user (detect_users)")
         if robot is not None and self.room_of(robot) == a.room:
-            a.notes.append(f"the hotspot was not reached ({state}: {text}), but the robot is in {a.room}")
+            a.notes.append(f"{place} was not reached ({state}: {text}), but the robot is in {a.room}")
             return self._phase(a, SEARCH, now, f"searching for the user in {a.room} (detect_users)")
         return self._end(a, ABORTED, f"could not reach {a.room} to search for the user: move_base {state}: {text}",
                          cancel_goal=False)
@@ -270,8 +278,9 @@ class Locator:
         return [Command("cancel_goal", (), a.id), *self._phase(a, SEARCH, now, f"searching for the user in {a.room} "
                                                                "(detect_users)")]
 
-    def phase_status(self, status, now):
-        """A message on /approach_user/status (detect_users' or approach_me_map's)."""
+    def phase_status(self, status, now, robot=None):
+        """A message on /approach_user/status (detect_users' or approach_me_map's). ``robot``: the
+        robot's Pose on the map (where a search that ends ABORTED turned), or None."""
         a = self.activity
         if a is None or a.kind != GOTO_USER or a.state not in RUNNING or a.phase not in (SEARCH, APPROACH):
             return []
@@ -280,8 +289,7 @@ class Locator:
             a.heard = now
             return []
         if a.phase == SEARCH and status == ABORTED:
-            return self._end(a, ABORTED, "detect_users found nobody in a full turn (or could not use the tracker; "
-                             "see its log)")
+            return self._search_again(a, robot, now)
         if a.phase == APPROACH and status == SUCCEEDED:
             u = self.user
             return self._end(a, SUCCEEDED, f"beside the user at ({u.x:.2f}, {u.y:.2f}) (approach_me_map)")
@@ -323,6 +331,25 @@ class Locator:
         return self._end(a, ABORTED, reason)
 
     # --- helpers -------------------------------------------------------------------------------------------
+    def _search_again(self, a, robot, now):
+        """detect_users turned a full circle at ``robot`` and found nobody: the drive to the next place
+        to search the room from, or the end."""
+        if robot is not None:
+            a.searched.append((robot.x, robot.y))
+        where = " and ".join(f"({x:.2f}, {y:.2f})" for x, y in a.searched) or "here"
+        spot = None
+        if len(a.searched) < self.search_spots and self.floor is not None and a.room in self.rooms.polygons:
+            spot = self.floor.lookout(self.rooms.polygons[a.room], a.searched, self.lookout_reach,
+                                      self.lookout_clearance)
+        if spot is None:
+            return self._end(a, ABORTED, f"detect_users found nobody in a full turn at {where} (or could not use "
+                             "the tracker; see its log)")
+        a.notes.append(f"nobody in a full turn at {where}")
+        a.phase, a.phase_started = NAVIGATE, now
+        a.text = f"going to ({spot.x:.2f}, {spot.y:.2f}) in {a.room} to search again"
+        self.last_goal = spot
+        return [Command("send_goal", spot.as_tuple(), a.id)]
+
     def _phase(self, a, phase, now, text):
         a.phase, a.phase_started, a.heard, a.state, a.text = phase, now, now, ACTIVE, text
         return [Command("search", (True,), a.id)] if phase == SEARCH else []

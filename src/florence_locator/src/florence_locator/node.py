@@ -85,6 +85,12 @@ PARAMS = ParamTable(
           ge=0),
     Param("sighting_clearance", float, 0.25, "... and this far from the map's walls and furniture (the tracker's "
           "ghosts sit on door frames and furniture edges)", unit="m", ge=0),
+    Param("search_spots", int, 2, "gotoUser: a full turn with nobody moves the robot to another place in the room "
+          "to search again, up to this many places (1 = the seed's one full turn) ...", ge=1, le=5),
+    Param("lookout_reach", float, 2.5, "... the place nearest this distance from the places searched before (the "
+          "Kinect does not see a person seated within about 1.1 m) ...", unit="m", gt=0),
+    Param("lookout_clearance", float, 0.45, "... at least this far from walls and furniture of the map (no "
+          "doorway), seeing the last place along a free line", unit="m", ge=0),
     Param("server_wait", float, 3.0, "a go-to call waits this long (wall time) for move_base's action server to "
           "connect before it is refused (a call just after start-up)", unit="s", ge=0, le=30),
 )
@@ -105,7 +111,8 @@ class FlorenceLocatorNode:
         self.core = Locator(rooms, hotspots, timeouts=Timeouts(p.heartbeat_timeout, p.search_timeout,
                                                                 p.approach_timeout),
                             hotspot_clearance=p.hotspot_clearance, sighting_margin=p.sighting_margin,
-                            sighting_clearance=p.sighting_clearance)
+                            sighting_clearance=p.sighting_clearance, search_spots=p.search_spots,
+                            lookout_reach=p.lookout_reach, lookout_clearance=p.lookout_clearance)
         self.lock = threading.RLock()
         self.events = queue.Queue()  # actionlib's callbacks, handled by the tick thread
         self.last_save_error = ""
@@ -230,8 +237,10 @@ class FlorenceLocatorNode:
             self._execute(self.core.set_override(msg.data, self.now()))
 
     def _on_status(self, msg):
+        # where a search that found nobody turned (the next place to search is chosen from it)
+        robot = self.robot_pose()[0] if msg.data.strip().upper() == "ABORTED" else None
         with self.lock:
-            self._execute(self.core.phase_status(msg.data, self.now()))
+            self._execute(self.core.phase_status(msg.data, self.now(), robot))
 
     def _on_detected(self, msg):
         if not msg.command:

@@ -251,6 +251,43 @@ class FloorMap(Grid):
             best = min(best, math.hypot(x - ax - t * dx, y - ay - t * dy))
         return best
 
+    def line_of_sight(self, starts, end, step=None):
+        """bool [N]: the straight segments from ``starts`` [N, 2] to ``end`` (x, y) cross no blocked cell."""
+        starts = np.asarray(starts, dtype=float).reshape(-1, 2)
+        end = np.asarray(end, dtype=float)
+        step = step or self.resolution / 2
+        n = max(2, math.ceil(float(np.max(np.hypot(*(starts - end).T), initial=0.0)) / step) + 1)
+        t = np.linspace(0.0, 1.0, n)
+        samples = starts[:, None, :] + t[None, :, None] * (end - starts)[:, None, :]  # [N, n, 2]
+        return ~self.blocked_at(samples.reshape(-1, 2)).reshape(len(starts), n).any(axis=1)
+
+    def lookout(self, polygon, searched, reach=2.5, clearance=0.45, step=0.1):
+        """Where to search a room again after full turns at ``searched`` [(x, y), ...] found nobody:
+        the Pose inside ``polygon``, ``clearance`` [m] from every obstacle (no doorway), that sees the
+        last searched spot along a free line, whose distance to the nearest searched spot is nearest
+        ``reach`` [m] (far enough for the Kinect to see a person sitting by that spot, near enough
+        to see her well), the most open of equals; facing the last spot. None when no point qualifies."""
+        poly = np.asarray(polygon, dtype=float)
+        (x0, y0), (x1, y1) = poly.min(axis=0), poly.max(axis=0)
+        xs, ys = np.meshgrid(np.arange(x0 + step / 2, x1, step), np.arange(y0 + step / 2, y1, step))
+        pts = np.column_stack([xs.ravel(), ys.ravel()])
+        pts = pts[contains_points(poly, pts)]
+        room = self.clearance_at(pts)
+        ok = (room >= clearance) & ~self.blocked_at(pts)
+        pts, room = pts[ok], room[ok]
+        if not len(pts) or not searched:
+            return None
+        spots = np.asarray(searched, dtype=float).reshape(-1, 2)
+        last = spots[-1]
+        seen = self.line_of_sight(pts, last)
+        pts, room = pts[seen], room[seen]
+        if not len(pts):
+            return None
+        dist = np.min(np.hypot(pts[:, None, 0] - spots[None, :, 0], pts[:, None, 1] - spots[None, :, 1]), axis=1)
+        score = -np.abs(dist - reach) + 0.5 * np.minimum(room, 1.0)
+        x, y = pts[int(np.argmax(score))]
+        return Pose(float(x), float(y), math.atan2(last[1] - y, last[0] - x))
+
 
 # --- hotspots -----------------------------------------------------------------------------------------------
 class Hotspots:
