@@ -146,6 +146,9 @@ def test_set_user_pos_room_from_a_home_sensor_then_goto_user_finds_the_user_ther
 
 
 def test_user_absent_aborts_after_a_full_turn_in_two_places(stack):
+    import rospy
+    from move_base_msgs.msg import MoveBaseActionGoal
+
     from florence_eval import locator_metrics
 
     session, procs = stack
@@ -153,16 +156,21 @@ def test_user_absent_aborts_after_a_full_turn_in_two_places(stack):
     assert session.call("setUserPosRoom", "bedroom").success
     session.remove_people()
     session.wait_sim(1.0)
+    goals = []  # simulated times of move_base goals: the one to the second place
+    sub = rospy.Subscriber("/move_base/goal", MoveBaseActionGoal, lambda m: goals.append(m.header.stamp.to_sec()))
     t0 = session.sim_now()
-    res, done, took = session.goto_user()  # the user's room is the robot's: no drive, the search at once
+    try:
+        res, done, took = session.goto_user()  # the user's room is the robot's: no drive, the search at once
+    finally:
+        sub.unregister()
     assert res.success and "already in bedroom" in res.message, res.message
     assert done.status == "ABORTED" and "found nobody in a full turn at" in done.message, f"{done.message}{dump(procs)}"
+    assert len(goals) == 1, f"move_base goals at {goals} s"
     track = session.track(t0)
     start, end = track[0, 1:3], track[-1, 1:3]
     # the first search: a full turn counter-clockwise where the robot stood, without turning back and forth
-    left = np.flatnonzero(np.hypot(*(track[:, 1:3] - start).T) > 0.15)
-    assert len(left), "the robot never left the place of the first search"
-    first = track[:left[0]]
+    first = track[track[:, 0] < goals[0]]
+    assert np.max(np.hypot(*(first[:, 1:3] - start).T)) < 0.15, "the robot moved in its first search"
     net, total = locator_metrics.turned(first, signed=True), locator_metrics.turned(first)
     detail = f"first search: turned {math.degrees(net):.0f} deg net, {math.degrees(total):.0f} deg in all"
     assert math.radians(330) <= net <= math.radians(400), detail
