@@ -211,6 +211,7 @@ def test_nobody_found_searches_again_from_a_second_place_then_aborts(loc):
     assert names(loc.phase_status("ABORTED", 70.0, Pose(x, y, phi))) == [("search", False)]  # the last place
     state, text = loc.status()
     assert state == ABORTED and "found nobody in a full turn at (1.25, 3.05) and" in text
+    assert text.count("(1.25, 3.05)") == 1, text
 
 
 def test_the_second_search_finds_the_user(loc):

@@ -46,6 +46,7 @@ RUNNING = (PENDING, ACTIVE)
 GOTO_ROOM, GOTO_XYPHI, GOTO_USER = "gotoRoom", "gotoXYPhi", "gotoUser"
 NAVIGATE, SEARCH, APPROACH = "navigate", "search", "approach"
 PHASE_NODE = {SEARCH: "detect_users", APPROACH: "approach_me_map"}
+NOBODY = "nobody in a full turn"
 
 
 @dataclass(frozen=True)
@@ -341,10 +342,11 @@ class Locator:
         if len(a.searched) < self.search_spots and self.floor is not None and a.room in self.rooms.polygons:
             spot = self.floor.lookout(self.rooms.polygons[a.room], a.searched, self.lookout_reach,
                                       self.lookout_clearance)
+        a.notes = [n for n in a.notes if not n.startswith(NOBODY)]  # the text names every place
         if spot is None:
-            return self._end(a, ABORTED, f"detect_users found nobody in a full turn at {where} (or could not use "
-                             "the tracker; see its log)")
-        a.notes.append(f"nobody in a full turn at {where}")
+            return self._end(a, ABORTED, f"detect_users found {NOBODY} at {where} (or could not use the tracker; "
+                             "see its log)")
+        a.notes.append(f"{NOBODY} at {where}")
         a.phase, a.phase_started = NAVIGATE, now
         a.text = f"going to ({spot.x:.2f}, {spot.y:.2f}) in {a.room} to search again"
         self.last_goal = spot
