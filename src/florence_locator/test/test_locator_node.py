@@ -104,6 +104,7 @@ class ScriptedTracker:
 
         self.rospy, self.robot_pose = rospy, robot_pose
         self.people = {}  # id -> (x, y) [m, map]
+        self.facings = {}  # id -> which way the person faces [rad, map] (none: NaN, unknown)
         self.tracking, self.started = True, 0.0
         self.calls = []
         self.pub = rospy.Publisher(f"{NS}/filtered_tracked_users", TrackedUsers, queue_size=5)
@@ -148,7 +149,8 @@ class ScriptedTracker:
             msg = TrackedUsers(user_ids=list(people), user_ids_ni=list(people), num_users_tracked=len(people),
                                stamp=now, frame_id="map", positions=[Point(x, y, 0.85) for x, y in people.values()],
                                velocities=[Vector3() for _ in people], last_seen=[now for _ in people],
-                               sensors=bytes([1] * len(people)))
+                               sensors=bytes([1] * len(people)),
+                               facings=[self.facings.get(pid, math.nan) for pid in people])
             self.pub.publish(msg)
             time.sleep(1 / 15)
 
@@ -178,8 +180,11 @@ def system(ros_master, rospy_node, tf_buffer, publisher, tmp_path_factory):
     publisher(f"{NS}/map", OccupancyGrid, latch=True).publish(msg)
 
     behaviour = {"reply": Reply("succeeded", 0.3)}
-    mock = MockMoveBase(name=f"{NS}/move_base", policy=lambda *_goal: behaviour["reply"], publish_tf=True,
-                        base_frame="odom")
+    def policy(*goal):  # behaviour["reply"]: a Reply, or a function of the goal (x, y, yaw, frame) giving one
+        reply = behaviour["reply"]
+        return reply(*goal) if callable(reply) else reply
+
+    mock = MockMoveBase(name=f"{NS}/move_base", policy=policy, publish_tf=True, base_frame="odom")
     mock.pose = KITCHEN
     base = FakeBase(rospy)
     tracker = ScriptedTracker(rospy, lambda: pose2d.compose(mock.pose, base.pose))
@@ -192,7 +197,7 @@ def system(ros_master, rospy_node, tf_buffer, publisher, tmp_path_factory):
                f"_tracker:={NS}/user_tracker_ni_node", "_settle_time:=0.1", "_look_time:=0.3", "_look_frames:=4",
                "_max_speed:=3.0", "_decel:=3.0"),
         rosrun(ros_master, "approach_me_map", "approach_me_map_node", *common,
-               "cmd_vel:=cmd_vel_mux/input/approach_me_map", "_align_speed:=0.25"),
+               "cmd_vel:=cmd_vel_mux/input/approach_me_map", "_align_speed:=0.25", "_front_timeout:=3.0"),
     ]
     try:
         for name in ("florenceLocator/gotoUser", "florenceLocator/getStatus"):
@@ -341,6 +346,36 @@ def test_goto_user_drives_searches_and_approaches(system):
     assert abs(angles.diff(facing, robot.phi)) < math.radians(10)  # approach_me_map's accept_angle
     user = _call("getUserPosXYPhi")
     assert (user.x, user.y) == pytest.approx(ALICE, abs=1e-3) and "detect_users" in user.message
+
+
+def test_a_seated_users_front_out_of_reach_gives_way_to_the_robots_side(system):
+    """Alice faces away from the robot (north, the tracker says) and move_base never reaches a pose
+    in front of her: after approach_me_map's ~front_timeout (3 s here) the next trial is on the
+    robot's side, and gotoUser succeeds there."""
+    from florence_common_ros.mock_move_base import Reply
+
+    mock, base, tracker, behaviour = system["mock"], system["base"], system["tracker"], system["behaviour"]
+    mock.pose = LIVING_HOTSPOT
+    with base.lock:
+        base.pose = (0.0, 0.0, 0.0)
+    tracker.people, tracker.facings = {7: ALICE}, {7: math.pi / 2}
+    wait_for(lambda: _call("getRobotPosRoom").room == "living_room", 10, what="the robot carried to the living room")
+    assert _call("setUserPosXYPhi", *ALICE, 0.0).success
+    n_goals, n_outcomes = len(mock.goals), len(mock.outcomes)
+    behaviour["reply"] = lambda x, y, yaw, frame: Reply("hang") if y > ALICE[1] else Reply("succeeded", 0.3)
+    try:
+        assert _call("gotoUser").success
+        done = _wait_status({"SUCCEEDED", "ABORTED", "PREEMPTED"}, 90, system)
+    finally:
+        behaviour["reply"] = Reply("succeeded", 0.3)
+        tracker.facings = {}
+    assert done.status == "SUCCEEDED", done.message
+    goals = mock.goals[n_goals:]
+    assert len(goals) == 2, goals  # no drive (the robot is in her room): her front, then the robot's side
+    assert goals[0][1] > ALICE[1] + 0.2  # in front of her
+    assert goals[1][1] < ALICE[1] and math.hypot(goals[1][0] - ALICE[0], goals[1][1] - ALICE[1]) \
+        == pytest.approx(0.5, abs=1e-3)
+    assert mock.outcomes[n_outcomes:] == ["preempted", "succeeded"]  # the trial in front cancelled at its deadline
 
 
 def test_goto_user_in_the_same_room_skips_the_drive_and_nobody_found_aborts(system):

@@ -88,8 +88,10 @@ PARAMS = ParamTable(
           unit="deg", gt=0, le=90),
     Param("preferred_offset", float, math.degrees(_A.preferred_offset), "front-left / front-right: the angle "
           "at the user from the way she faces that costs least", unit="deg", ge=0, le=60),
-    Param("use_facing", bool, False, "the front is the way the tracker says the user faces (a seated user's "
-          "shins); false (the default: see the README), or while it does not say: the robot's side"),
+    Param("use_facing", bool, True, "the front is the way the tracker says the user faces (a seated user's "
+          "shins); false, or while it does not say: the robot's side"),
+    Param("front_timeout", float, 45.0, "the trials ranked from her facing get this long in all; then the robot's "
+          "side (a corner seat whose front is tight), with one more trial if none is left", unit="s", gt=0),
     Param("facing_max_speed", float, 0.25, "a facing is used only while the user's track is slower than this "
           "(a walker's facing is her way, and a still person's track jitters so close up)", unit="m/s", gt=0),
     Param("pass_distance", float, 0.6, "a make_plan path that goes round the user nearer than this (move_base's "
@@ -315,13 +317,16 @@ class ApproachMeMapNode:
         if not server_ready(self.client):
             return "ABORTED", "move_base is not running"
         tried, notes = [], []
-        for trial in range(1, p.trials + 1):
+        started, front_over = rospy.get_time(), False
+        trial, limit = 0, p.trials
+        while trial < limit:
+            trial += 1
             self._check()
             robot, why = self._robot(p.map_frame)
             if robot is None:
                 return "ABORTED", f"no robot pose: {why}"
             with self.lock:
-                user, grid, facing = self.user, self.grid, self.facing
+                user, grid, facing = self.user, self.grid, None if front_over else self.facing
             candidates = rank(user, robot[:2], self.params, grid, exclude=tried, facing=facing)
             if trial == 1:
                 self._publish_candidates(candidates)
@@ -343,11 +348,17 @@ class ApproachMeMapNode:
                              + ("" if candidates else " (none free on the map)"))
                 break
             tried.append(goal.angle)
-            ok, why = self._drive(goal, user, beat, last=trial == p.trials)
+            deadline = math.inf if facing is None else started + p.front_timeout
+            ok, why = self._drive(goal, user, beat, last=trial == limit, use_facing=facing is not None,
+                                  deadline=deadline)
             front = "the robot's side" if facing is None else f"her facing {math.degrees(facing):.0f} deg"
             notes.append(f"trial {trial} at {math.degrees(goal.offset):+.0f} deg from {front}: {why}")
             if ok:
                 return "SUCCEEDED", "; ".join(notes)
+            if facing is not None and rospy.get_time() >= deadline:
+                # her front is out of reach (a corner seat, her knees, the tracker's facing off): the robot's
+                # side from now on, with one more trial if this was the last
+                front_over, limit = True, max(limit, trial + 1)
         return "ABORTED", "; ".join(notes) or "no trial"
 
     def _plannable(self, candidates, robot, beat, user):
@@ -383,9 +394,10 @@ class ApproachMeMapNode:
                           "none" if chosen is None else f"{math.degrees(chosen.offset):+.0f} deg", "; ".join(seen))
         return chosen
 
-    def _drive(self, goal, user, beat, last):
+    def _drive(self, goal, user, beat, last, use_facing=True, deadline=math.inf):
         """One trial: move_base to ``goal``, then the last half metre (``last``: the last trial). (ok, what
-        happened)."""
+        happened). ``use_facing``: the trial ranked from her facing (else from the robot's side, and
+        ending at her back is no failure); past ``deadline`` [s] (ROS time) it ends."""
         p = self.p
         done = threading.Event()
         aim, target = user, (goal.x, goal.y)  # the user's place the pose was put around, and the pose
@@ -420,9 +432,11 @@ class ApproachMeMapNode:
                     sent, moves = send(), moves + 1
                     rospy.loginfo(LOG + "the user is %.2f m from where the pose was put: pose moved to (%.2f, %.2f)",
                                   math.hypot(*shift), *target)
-                if rospy.get_time() - started > p.goal_timeout:
+                now = rospy.get_time()
+                if now - started > p.goal_timeout or now > deadline:
                     self.client.cancel_goal()
-                    return False, f"move_base took longer than {p.goal_timeout:.0f} s"
+                    return False, (f"move_base took longer than {p.goal_timeout:.0f} s" if now <= deadline else
+                                   f"her front not reached within ~front_timeout ({p.front_timeout:.0f} s)")
                 robot, _ = self._robot(p.map_frame)
                 if robot is not None and stall.update(rospy.get_time(), robot, target):
                     self.client.cancel_goal()
@@ -444,7 +458,7 @@ class ApproachMeMapNode:
             if not near:
                 return False, f"move_base {state_name(state)}: {text}"
             with self.lock:
-                facing = self.facing
+                facing = self.facing if use_facing else None
             if not last and behind(now_user, robot, facing, self.params.side_limit):  # it would end at her back
                 return False, f"move_base {state_name(state)} behind the user: {text}"
         moved = f"the pose moved {moves} time(s) with her; " if moves else ""
