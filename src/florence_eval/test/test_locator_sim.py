@@ -113,12 +113,11 @@ def test_goto_room_reaches_every_room_and_get_robot_pos_room_agrees(stack):
 
 
 @pytest.mark.xfail(strict=False, reason=(
-    "known defect (issue 20): the robot, seeing the seated user on its way in from the kitchen, comes up behind her "
-    "in the living room's corner between the coffee table and a chair: with ~use_facing off (the default) "
-    "approach_me_map's front is the robot's side. With ~use_facing true and move_base keeping the announced user at "
-    "0.45 m (approach_person_distance, 29 Nov) this test passed 4 of 4 runs (front or front-left, 0.59-0.61 m, "
-    "25-41 s), but make demo at 2x real time, the same seat, took 99-182 s in 5 days of 5 (poses by the chair or on "
-    "her knees: the tracker's facing for her 25-30 deg off her true 160), so the default stays off"))
+    "known defect (issue 20): the robot, seeing the seated user on its way in from the kitchen, may come up behind "
+    "her in the living room's corner between the coffee table and a chair. approach_me_map tries her front for "
+    "~front_timeout (45 s; ~use_facing on since 29 Nov), then the robot's side, which is her back. Here at real time "
+    "it reached her front-left in 26 s (29 Nov, 07bb0d1; 4 of 4 before with ~use_facing on), but make demo at 2x "
+    "real time, the same seat, ran out of the 45 s in 3 days of 3 and ended behind her"))
 def test_goto_user_sitting_in_the_living_room_from_the_kitchen(stack):
     session, procs = stack
     session.place_robot(hotspot(session, "kitchen"))
