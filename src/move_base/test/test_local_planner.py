@@ -767,3 +767,33 @@ def test_the_user_the_robot_is_sent_to_is_kept_at_approach_person_distance():
     assert abs(x - 5.7) <= 0.05 + 1e-6 and reason == "goal reached", (x, reason)
     x, reason = drive((6.25, 5.05))
     assert 6.2 - x >= 0.6 - 0.01 and "min_person_distance" in reason, (x, reason)
+
+
+def test_coming_round_the_user_she_is_kept_at_min_person_distance():
+    """Florence: the goal 0.5 m beyond a seated user, the plan round her at 0.5 m (approach_me_map's
+    pose at her front, the robot behind her). She is announced, but the robot is farther than
+    approach_goal_radius from the goal: it keeps min_person_distance (0.6 m) from her on the way
+    round; approach_person_distance (0.45 m) holds only on the last stretch. With the radius
+    unbounded (the exemption everywhere, as before 29 Nov) it comes round her nearer than 0.6 m."""
+    cm = Costmap2D(100, 100, 0.1)
+    her = np.array([[6.2, 5.0, 0.0, 0.0]])
+    a = np.linspace(math.pi, 0.0, 40)
+    arc = np.column_stack([6.2 + 0.5 * np.cos(a), 5.0 + 0.5 * np.sin(a), a - math.pi / 2])
+    arc[-1, 2] = math.pi  # at her other side, facing her
+    plan = np.vstack([line_plan(4.6, 5.0, 5.65, 5.0), arc])
+
+    def drive(**params):
+        lp = planner(min_person_distance=0.6, approach_person_distance=0.45, xy_goal_tolerance=0.1, **params)
+        lp.set_plan(plan)
+        x, y, yaw, v, w, nearest = 4.6, 5.0, 0.0, 0.0, 0.0, math.inf
+        for _ in range(300):
+            lp.set_people(her, approached=(6.2, 5.0))
+            ok, cmd, _reason = lp.compute_velocity(cm, (x, y, yaw), (v, 0.0, w), plan)
+            v, w = (cmd[0], cmd[2]) if ok else (0.0, 0.0)
+            yaw += w * 0.1
+            x, y = x + v * math.cos(yaw) * 0.1, y + v * math.sin(yaw) * 0.1
+            nearest = min(nearest, math.hypot(x - 6.2, y - 5.0))
+        return nearest
+
+    assert drive() >= 0.6 - 0.02
+    assert drive(approach_goal_radius=10.0) < 0.58

@@ -128,10 +128,12 @@ PARAMS = ParamTable(
     Param("approach_person_distance", float, 0.0, "Florence: the person the robot is sent to on purpose "
           "(move_base's approach_target topic: approach_me_map's user) is kept this far instead of "
           "min_person_distance, and the leg-height returns round her are hers (0: min_person_distance for her "
-          "too)", unit="m", ge=0.0),
+          "too) ...", unit="m", ge=0.0),
+    Param("approach_goal_radius", float, 0.35, "Florence: ... while the robot is this near its goal (farther out, "
+          "coming round her, min_person_distance holds for her too)", unit="m", ge=0.0),
 )
 """TrajectoryPlannerROS's parameters (``~TrajectoryPlannerROS/``: ROS names and defaults, plus
-Florence's three, off by default, which is ROS's behaviour)."""
+Florence's, off by default, which is ROS's behaviour)."""
 
 
 class PlannerParams(Params):
