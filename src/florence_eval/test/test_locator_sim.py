@@ -116,8 +116,9 @@ def test_goto_room_reaches_every_room_and_get_robot_pos_room_agrees(stack):
     "known defect (issue 20): the robot, seeing the seated user on its way in from the kitchen, may come up behind "
     "her in the living room's corner between the coffee table and a chair. approach_me_map tries her front for "
     "~front_timeout (45 s; ~use_facing on since 29 Nov), then the robot's side, which is her back. Here at real time "
-    "it reached her front-left in 26 s (29 Nov, 07bb0d1; 4 of 4 before with ~use_facing on), but make demo at 2x "
-    "real time, the same seat, ran out of the 45 s in 3 days of 3 and ended behind her"))
+    "it reached her front-left or front-right in 26 and 41 s (29 Nov, 07bb0d1 and 6f946c7; 4 of 4 before with "
+    "~use_facing on), but make demo at 2x real time, the same seat, ran out of the 45 s in 4 days of 4 and ended "
+    "behind her"))
 def test_goto_user_sitting_in_the_living_room_from_the_kitchen(stack):
     session, procs = stack
     session.place_robot(hotspot(session, "kitchen"))
