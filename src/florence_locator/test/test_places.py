@@ -229,6 +229,15 @@ def test_lookout_sees_the_searched_place_from_the_reach_away_in_the_open():
     assert min(math.hypot(two.x - 1.0, two.y - 1.5), math.hypot(two.x - 3.3, two.y - 1.5)) > 1.0
 
 
+def test_lookout_from_a_search_outside_the_room_behind_a_wall():
+    floor, _room = _room_with_a_cupboard()
+    half = [[0.0, 0.0], [2.0, 0.0], [2.0, 3.0], [0.0, 3.0]]  # west of the cupboard: (3.3, 1.5) out of its sight
+    assert not floor.line_of_sight([[1.0, 1.5]], (3.3, 1.5))[0]
+    spot = floor.lookout(half, [(3.3, 1.5)], reach=2.5, clearance=0.45)
+    assert spot is not None and spot.x < 2.0 and floor.problem(spot.x, spot.y, 0.45) is None
+    assert not floor.line_of_sight([[spot.x, spot.y]], (3.3, 1.5))[0]  # none sees it: the line is not asked
+
+
 def test_lookout_refuses_a_room_with_no_open_place():
     floor, room = _room_with_a_cupboard()
     assert floor.lookout(room, [(1.0, 1.5)], clearance=2.0) is None
