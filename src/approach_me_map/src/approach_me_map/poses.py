@@ -99,9 +99,7 @@ class ObstacleGrid(Grid):
         usable = length - skip_near_b
         if usable <= 0:
             return True
-        n = max(2, math.ceil(usable / (0.5 * self.resolution)) + 1)
-        t = np.linspace(0.0, usable / length, n)
-        return not bool(np.any(self.blocked_at(a + t[:, None] * (b - a))))
+        return bool(self.line_of_sight([a], a + (b - a) * (usable / length))[0])
 
     def free_within(self, xy, radius):
         """Whether a disc of ``radius`` [m] at each of the points [N, 2] is free (bool [N])."""

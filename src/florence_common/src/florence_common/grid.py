@@ -4,6 +4,7 @@ the origin): which cell a point falls in, whether it is an obstacle, how far the
     grid = Grid(data, origin=(x0, y0, yaw0), resolution=0.05)
     grid.blocked_at([[1.0, 2.0]])      # [True] inside an occupied or unknown cell, or off the grid
     grid.clearance_at([[1.0, 2.0]])    # [m] from the cell's centre to the nearest blocked cell
+    grid.line_of_sight([[0.0, 0.0]], (1.0, 2.0))  # [True] the segment crosses no blocked cell
 """
 
 import math
@@ -54,3 +55,14 @@ class Grid:
         """[m] at points [N, 2] (0 off the grid)."""
         rows, cols, inside = self.cells(xy)
         return np.where(inside, self.clearance[rows, cols], 0.0)
+
+    def line_of_sight(self, starts, ends, step=None):
+        """bool [N]: the straight segments from ``starts`` [N, 2] to ``ends`` ([N, 2], or one (x, y)
+        for all) cross no blocked cell, sampled every ``step`` [m] (half a cell by default)."""
+        starts = np.asarray(starts, dtype=float).reshape(-1, 2)
+        ends = np.broadcast_to(np.asarray(ends, dtype=float), starts.shape)
+        step = step or self.resolution / 2
+        n = max(2, math.ceil(float(np.max(np.hypot(*(ends - starts).T), initial=0.0)) / step) + 1)
+        t = np.linspace(0.0, 1.0, n)
+        samples = starts[:, None, :] + t[None, :, None] * (ends - starts)[:, None, :]  # [N, n, 2]
+        return ~self.blocked_at(samples.reshape(-1, 2)).reshape(len(starts), n).any(axis=1)

@@ -251,16 +251,6 @@ class FloorMap(Grid):
             best = min(best, math.hypot(x - ax - t * dx, y - ay - t * dy))
         return best
 
-    def line_of_sight(self, starts, end, step=None):
-        """bool [N]: the straight segments from ``starts`` [N, 2] to ``end`` (x, y) cross no blocked cell."""
-        starts = np.asarray(starts, dtype=float).reshape(-1, 2)
-        end = np.asarray(end, dtype=float)
-        step = step or self.resolution / 2
-        n = max(2, math.ceil(float(np.max(np.hypot(*(starts - end).T), initial=0.0)) / step) + 1)
-        t = np.linspace(0.0, 1.0, n)
-        samples = starts[:, None, :] + t[None, :, None] * (end - starts)[:, None, :]  # [N, n, 2]
-        return ~self.blocked_at(samples.reshape(-1, 2)).reshape(len(starts), n).any(axis=1)
-
     def lookout(self, polygon, searched, reach=2.5, clearance=0.45, step=0.1):
         """Where to search a room again after full turns at ``searched`` [(x, y), ...] found nobody:
         the Pose inside ``polygon``, ``clearance`` [m] from every obstacle (no doorway), that sees the
