@@ -65,15 +65,17 @@ def test_the_way_is_a_spiral_that_keeps_the_person_at_one_bearing(sweep_to, sign
         assert (min(y for _, y in path) < 0.9) == (sign > 0)
 
 
-def simulate(request, person=P, robot=(0.0, 1.0, 0.0), seconds=40.0, shift=None, gains=None):
+def simulate(request, person=P, robot=(0.0, 1.0, 0.0), seconds=40.0, shift=None, gains=None, turning=0.0):
     """The controller at 10 Hz on a robot integrated at 100 Hz with the base's acceleration limits.
-    ``shift``: (t, (dx, dy)) the person steps aside at t. Returns (final robot pose, least distance to
-    the person, the controller, time)."""
+    ``shift``: (t, (dx, dy)) the person steps aside at t; ``turning`` [rad/s]: the robot turns at this
+    rate at the start, as last commanded. Returns (final robot pose, least distance to the person, the
+    controller, time)."""
     g = gains or GAINS.defaults()
     a = Approacher(g, request, person, robot[:2], 10.0)
     robot = list(robot)
     person = list(person)
-    v = w = 0.0
+    v = 0.0
+    w = a.w = turning
     cmd = (0.0, 0.0)
     least = math.inf
     dt = 0.01
@@ -146,3 +148,28 @@ def test_follows_a_person_who_shifts():
     pos, head = check(req, robot, person=moved)
     assert a.phase == DONE and pos < 0.06 and head < 0.08
     assert np.isfinite(least)
+
+
+def test_does_not_end_while_turning_fast():
+    """In position, the heading within the tolerance, but still turning at 1 rad/s (from the last
+    steering of phase 1): told to stop there, the robot would coast 0.5 rad past (at 1 rad/s^2)."""
+    req = Request(0.6, 0.0, 0.0, 0.3, 1.0)
+    direction = geometry.approach_direction(P, R0, req.p2r)
+    gx, gy = geometry.goal_position(P, direction, req.distance)
+    yaw = geometry.final_heading((gx, gy), P, req.r2p)
+    a = Approacher(GAINS.defaults(), req, P, R0, 10.0)
+    a.w = 1.0
+    assert a.step((gx, gy, yaw - 0.03), P).phase != DONE
+    robot, _, a, t = simulate(req, robot=(gx, gy, yaw - 0.03), turning=1.0)
+    assert a.phase == DONE, f"not reached in {t:.0f} s"
+    pos, head = check(req, robot)
+    assert pos < 0.06 and head < 0.05, f"{pos:.3f} m, {head:.3f} rad"
+
+
+def test_ends_at_the_rate_phase_two_turns_at():
+    """The settled rate lets phase 2's own approach end: its deceleration law within the tolerance."""
+    g = GAINS.defaults()
+    a = Approacher(g, Request(0.6, 0.0, 0.0, 0.3, 1.0), P, R0, 10.0, yaw_tolerance=0.05)
+    law = min(g.k_angular * 0.05, math.sqrt(2.0 * g.turn_decel * 0.05))
+    assert max(law, g.min_turn_rate) <= a.settled_rate()
+    assert a.settled_rate() ** 2 / (2.0 * g.max_ang_acc) <= 0.05 / 2 + 1e-12

@@ -13,9 +13,11 @@ at v = min(max speed, k_linear * distance left, the speed it can stop from at ``
 path is reached backwards. Within ``xy_tolerance`` of G: phase 2.
 
 Phase 2 (``turn``): w = k_angular * (heading error) toward geometry.final_heading, no faster than
-the robot can stop from at ``turn_decel`` and at least ``min_turn_rate``; within ``yaw_tolerance``
-the goal is reached. A person who shifts the goal more
-than twice ``xy_tolerance`` away sends the robot back to phase 1.
+the robot can stop from at ``turn_decel`` and at least ``min_turn_rate``; within ``yaw_tolerance``,
+turning no faster than :meth:`Approacher.settled_rate`, the goal is reached. (A robot that came into
+position still steering at 1 rad/s with its heading by chance within the tolerance was told to stop
+there and coasted 0.7 rad past it: ``make demo`` seed 2, 41 degrees off.) A person who shifts the
+goal more than twice ``xy_tolerance`` away sends the robot back to phase 1.
 """
 
 import math
@@ -107,7 +109,7 @@ class Approacher:
         if self.phase == DRIVE:
             return self._drive(robot, person, (gx, gy), err, yaw)
         heading_error = diff(yaw, robot[2])
-        if abs(heading_error) <= self.yaw_tolerance:
+        if abs(heading_error) <= self.yaw_tolerance and abs(self.w) <= self.settled_rate():
             self.phase = DONE
             v, w = self._command(0.0, 0.0)
             return Step(v, w, DONE, (gx, gy, yaw), err, heading_error, "reached")
@@ -115,6 +117,14 @@ class Approacher:
         w = math.copysign(max(rate, g.min_turn_rate), heading_error)
         v, w = self._command(0.0, w)
         return Step(v, w, TURN, (gx, gy, yaw), err, heading_error, f"turning: {heading_error:+.2f} rad to go")
+
+    def settled_rate(self):
+        """The fastest turn [rad/s] at which phase 2 may end: the rate phase 2 itself turns at within
+        ``yaw_tolerance`` (its deceleration law there, or ``min_turn_rate``). A robot stopped from it
+        at ``max_ang_acc`` turns on by at most half the tolerance (0.025 rad with the defaults)."""
+        g = self.gains
+        return max(g.min_turn_rate, min(math.sqrt(2.0 * g.turn_decel * self.yaw_tolerance),
+                                        math.sqrt(g.max_ang_acc * self.yaw_tolerance)))
 
     def _drive(self, robot, person, goal, err, yaw):
         g, r = self.gains, self.request
