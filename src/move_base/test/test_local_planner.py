@@ -729,6 +729,41 @@ def test_turn_to_plan_turns_once_per_place():
     assert ok and reason == TURNING_TO_PLAN and cmd[2] > 0.0  # 0.3 m on
 
 
+def test_a_turn_on_the_spot_beside_a_wall_keeps_the_body_clear_not_the_padded_footprint():
+    """The launch pads the footprint by 0.06 m: its square back corners reach 0.31 m from the centre.
+    A robot 0.30 m from a wall, its plan behind it, found no turn on the spot free, and the rollouts
+    rocked it to and fro at 0.1 m/s (bench/nav.py seed 1: 12 legs ABORTED, oscillating). The round
+    robot's turn sweeps nothing new: the body (padded 0.01 m, corners at 0.24 m) is what a turn keeps
+    clear. The same turn with the padded footprint as the body is refused, as before."""
+    res = 0.05
+    lethal = np.zeros((60, 60), bool)
+    lethal[:, 19:21] = True  # a wall x 0.95..1.05 m (its face 0.275 m from the robot's centre cell's)
+    cm = Costmap2D(60, 60, res)
+    cm.costs[:] = inflated(lethal, res)
+    padded = pad_footprint(parse_footprint(_COMMON["footprint"]), 0.06)
+    start = (1.325, 1.5, -math.pi / 2)  # facing south along the wall, 0.3 m from its centre line
+    plan = line_plan(1.325, 1.5, 1.325, 2.8)  # north
+    assert not poses_are_free(cm, [(1.325, 1.5, -math.pi / 2 + a) for a in np.linspace(0, math.pi, 37)], padded)
+
+    def run(body):
+        lp = LocalPlanner(PlannerParams.from_dict({**SEED, "acc_lim_th": 1.0, "turn_to_plan_angle": 1.5}), padded,
+                          INSCRIBED, CIRCUMSCRIBED, body=body)
+        lp.set_plan(plan)
+        pose, v, reasons = start, np.zeros(3), []
+        for _ in range(int(6.0 / lp.params.sim_period)):
+            _, cmd, reason = lp.compute_velocity(cm, pose, tuple(v), plan)
+            reasons.append(reason)
+            pose, v = _base_step(pose, v, cmd, (0.5, 0.5, 1.0), lp.params.sim_period)
+        return pose, reasons
+
+    pose, reasons = run(FOOTPRINT)
+    assert reasons[0] == TURNING_TO_PLAN
+    assert pose[1] > 1.8, f"not on its way north: {pose}"
+    assert poses_are_free(cm, [pose], FOOTPRINT)
+    _, reasons = run(None)
+    assert TURNING_TO_PLAN not in reasons
+
+
 @pytest.mark.parametrize("heading_deg", [0.0, 60.0, -80.0])
 def test_turn_to_plan_leaves_a_plan_ahead_to_the_rollouts(heading_deg):
     cm = Costmap2D(100, 100, 0.05)

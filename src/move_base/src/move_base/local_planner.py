@@ -141,7 +141,8 @@ class LocalPlanner:
         footprint: (N, 2) footprint [m] in the base frame.
         inscribed_radius, circumscribed_radius: footprint radii [m].
         body: (M, 2) the footprint without its padding [m] (None: the footprint), what must end
-            clear when the robot backs up out of a collision (TrajectoryPlanner).
+            clear when the robot backs up out of a collision (TrajectoryPlanner), and what a turn on
+            the spot must keep clear (:meth:`_sweep_is_free`).
 
     Attributes:
         global_plan: (N, 3) plan [m, m, rad] in the global frame as set, pruned as the robot
@@ -362,11 +363,20 @@ class LocalPlanner:
         return self._sweep_is_free(costmap, x, y, yaw, diff + math.copysign(beyond, diff))
 
     def _sweep_is_free(self, costmap, x, y, yaw, sweep):
-        """Whether the footprint stays clear of lethal cells (and people) over a turn on the spot of
-        ``sweep`` [rad] (signed, any size) from ``yaw``, checked every 0.05 rad."""
+        """Whether the robot's body stays clear of lethal cells (and people) over a turn on the spot
+        of ``sweep`` [rad] (signed, any size) from ``yaw``, checked every 0.05 rad.
+
+        The body, not the padded footprint: the Create is round, so a turn on the spot sweeps no
+        floor its body does not stand on, but the padded footprint's square back corners reach
+        0.31 m from its centre (0.22 m each way with footprint_padding 0.06). Beside a wall 0.30 m
+        away no turn was free, and in ``bench/nav.py --pairs 30 --seed 1`` the robot, at the end of
+        leg 18 in the kitchen facing the wall's end, rocked at +-0.1 m/s for legs 19-30 (all
+        ABORTED, oscillating; the rotate recoveries stopped at once too). The body (footprint padded
+        by BODY_PADDING, the back corners at 0.24 m) holds the round robot."""
         steps = max(1, math.ceil(abs(sweep) / 0.05))
         yaws = yaw + sweep * np.arange(steps + 1) / steps
-        return self._path_is_free(costmap, np.column_stack([np.full_like(yaws, x), np.full_like(yaws, y), yaws]))
+        return self._path_is_free(costmap, np.column_stack([np.full_like(yaws, x), np.full_like(yaws, y), yaws]),
+                                  self.planner.body)
 
     def _turn_toward_plan(self, costmap, x, y, yaw, vx, vth, window):
         """``turn_to_plan_angle``: the command (vx, vy, vth) of a turn on the spot toward the plan
@@ -420,7 +430,7 @@ class LocalPlanner:
         if cvx == 0.0 and cvth * way < p.min_in_place_vel_theta:
             cvth = way * p.min_in_place_vel_theta  # the base's dead band: as rotateToGoal
         points = self._braking_path(x, y, yaw, cvx, cvth, hold=0.0)
-        if not self._path_is_free(costmap, points):
+        if not self._path_is_free(costmap, points, self.planner.body if cvx == 0.0 else None):
             return None
         sx, sy, syaw = points[-1]
         if not self._sweep_is_free(costmap, sx, sy, syaw, sweep - angles.diff(syaw, yaw)):
@@ -498,7 +508,7 @@ class LocalPlanner:
         if abs(cvy) > 0.0:
             return None  # a holonomic base strafing: ROS's braking, then the turn
         points = self._braking_path(x, y, yaw, cvx, cvth, hold=0.0)
-        if not self._path_is_free(costmap, points):
+        if not self._path_is_free(costmap, points, self.planner.body if cvx == 0.0 else None):
             return None
         sx, sy, syaw = points[-1]
         overshoot = max(0.0, cvth * cvth / (2.0 * p.acc_lim_theta) - p.yaw_goal_tolerance)
@@ -566,12 +576,12 @@ class LocalPlanner:
         py = y + np.concatenate([[0.0], np.cumsum(speed[:-1] * np.sin(th[:-1]) * h)])
         return np.column_stack([px, py, th])
 
-    def _path_is_free(self, costmap, points):
-        """Whether the footprint stays clear of lethal cells at every pose (x, y, yaw) of ``points``
-        and the path does not come nearer than min_person_distance to a person (standing where
-        they are) than its first pose (the paths checked here are the Florence final approach's and
-        braking turns: they end in a stop)."""
-        if not poses_are_free(costmap, points, self.planner.footprint):
+    def _path_is_free(self, costmap, points, footprint=None):
+        """Whether ``footprint`` (None: the padded footprint) stays clear of lethal cells at every
+        pose (x, y, yaw) of ``points`` and the path does not come nearer than min_person_distance to
+        a person (standing where they are) than its first pose (the paths checked here are the
+        Florence final approach's and braking turns: they end in a stop)."""
+        if not poses_are_free(costmap, points, self.planner.footprint if footprint is None else footprint):
             return False
         people, still = self.planner.people, self.planner.still_people
         if self.params.min_person_distance > 0.0 and (len(people) or len(still)):

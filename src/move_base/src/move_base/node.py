@@ -430,7 +430,8 @@ class MoveBaseNode:
                 parsed.append((name, kind, reset))
             specs = parsed
         costmaps = [self.planner_costmap, self.controller_costmap]
-        check = footprint_collision_check(self._local_footprint_cost, self.controller_costmap.footprint)
+        # a turn on the spot keeps the robot's body clear, as the local planner's (LocalPlanner._sweep_is_free)
+        check = footprint_collision_check(self._local_footprint_cost, self.controller_costmap.body)
         out = []
         for name, kind, reset in specs:
             if kind.endswith("ClearCostmapRecovery"):
