@@ -832,3 +832,35 @@ def test_coming_round_the_user_she_is_kept_at_min_person_distance():
 
     assert drive() >= 0.6 - 0.02
     assert drive(approach_goal_radius=10.0) < 0.58
+
+
+@pytest.mark.parametrize("who", ["tracked", "unexplained", "nobody", "far"])
+def test_near_person_speed_limits_the_forward_speed_near_people(who):
+    """near_person_speed: within near_person_radius of a tracked person or of a leg-height return the
+    maps do not explain, the robot drives no faster than near_person_speed; farther, at max_vel_x.
+    Off by default (ROS)."""
+    cm = Costmap2D(100, 100, 0.1)
+    plan = line_plan(1.0, 5.0, 9.0, 5.0)
+    beside = {"tracked": (3.0, 6.0), "unexplained": (3.0, 6.0), "far": (3.0, 6.5), "nobody": None}[who]
+
+    def top_speed(**params):
+        lp = planner(min_person_distance=0.6, acc_lim_x=0.5, **params)
+        lp.set_plan(plan)
+        pose, v, fastest = (2.0, 5.0, 0.0), np.zeros(3), 0.0
+        for _ in range(int(4.0 / lp.params.sim_period)):  # 4 s: 1 m at most before it draws level
+            people = np.array([[*beside, 0.0, 0.0]]) if who in ("tracked", "far") else np.zeros((0, 4))
+            still = np.array([beside]) if who == "unexplained" else None
+            lp.set_people(people, still=still)
+            ok, cmd, _ = lp.compute_velocity(cm, pose, tuple(v), plan)
+            assert ok
+            if beside is None or math.dist(pose[:2], beside) <= (1.6 if who == "far" else 1.2):
+                fastest = max(fastest, cmd[0])
+            pose, v = _base_step(pose, v, cmd, (0.5, 0.5, 1.0), lp.params.sim_period)
+        return fastest
+
+    limited = top_speed(near_person_speed=0.3, near_person_radius=1.2)
+    assert top_speed() > 0.45  # off: as ROS, also near her
+    if who in ("nobody", "far"):  # far: 1.5 m beside its way at the nearest
+        assert limited > 0.45
+    else:  # within 1.2 m of her (1.0 m at the nearest) every command is within the limit
+        assert 0.2 < limited <= 0.3 + 1e-9

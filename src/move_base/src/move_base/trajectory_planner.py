@@ -131,6 +131,10 @@ PARAMS = ParamTable(
           "too) ...", unit="m", ge=0.0),
     Param("approach_goal_radius", float, 0.35, "Florence: ... while the robot is this near its goal (farther out, "
           "coming round her, min_person_distance holds for her too)", unit="m", ge=0.0),
+    Param("near_person_speed", float, 0.0, "Florence: the fastest forward speed while a tracked person's centre or "
+          "a leg-height return the maps do not explain is within near_person_radius of the robot's centre (0: "
+          "off, ROS)", unit="m/s", ge=0.0),
+    Param("near_person_radius", float, 1.2, "Florence: ... (the outer edge of personal space)", unit="m", ge=0.0),
 )
 """TrajectoryPlannerROS's parameters (``~TrajectoryPlannerROS/``: ROS names and defaults, plus
 Florence's, off by default, which is ROS's behaviour)."""
@@ -633,6 +637,7 @@ class TrajectoryPlanner:
         self.still_people = np.zeros((0, 2))  # (S, 2) x, y [m]: what may be people the tracker does not know
         self.remembered_people = np.zeros((0, 4))  # (R, 4): people seen longer ago, only for backs_toward
         self.people_distance = None  # (P,) [m] each person's min_person_distance (None: all the parameter's)
+        self.speed_cap = math.inf  # [m/s] this cycle's limit on the forward samples (near_person_speed)
         self.refused_for_people = 0  # trajectories the last scoring refused for min_person_distance alone
         self._brake = None  # (x, y, yaw, vx, acc_lim_x) of the cycle: braking is never refused for people
         self._cost_without_people = None
@@ -659,9 +664,11 @@ class TrajectoryPlanner:
         clipped to the velocity limits; max_vx is also at most final_goal_dist [m] / sim_time."""
         p = self.params
         t = p.sim_period if p.dwa else p.sim_time
-        max_vx = min(p.max_vel_x, final_goal_dist / p.sim_time)
+        max_vx = min(p.max_vel_x, self.speed_cap, final_goal_dist / p.sim_time)
         max_vx = max(min(max_vx, vx + p.acc_lim_x * t), p.min_vel_x)
         min_vx = max(p.min_vel_x, vx - p.acc_lim_x * t)
+        if self.speed_cap < math.inf:  # near people: every forward sample within the cap (ROS: no clamp)
+            min_vx = min(min_vx, max_vx)
         max_vth = min(p.max_vel_theta, vth + p.acc_lim_theta * t)
         min_vth = max(p.min_vel_theta, vth - p.acc_lim_theta * t)
         return min_vx, max_vx, min_vth, max_vth
