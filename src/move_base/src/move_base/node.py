@@ -19,6 +19,9 @@ Subscribers:
 
 Publishers:
     cmd_vel (geometry_msgs/Twist): velocity commands at controller_frequency; zero on every stop.
+    ~waiting_for (geometry_msgs/PointStamped, global frame): while the robot waits for people in its
+        way (WAITING), where the nearest of them stands (a tracked person or a leg-height return the
+        maps do not explain), at most twice a second: florence_locator looks at who it is.
     ~current_goal (geometry_msgs/PoseStamped), ~NavfnROS/plan (nav_msgs/Path),
     ~TrajectoryPlannerROS/global_plan and ~TrajectoryPlannerROS/local_plan (nav_msgs/Path),
     ~global_costmap/costmap, ~local_costmap/costmap (nav_msgs/OccupancyGrid) and their footprints.
@@ -234,6 +237,7 @@ class PeopleAdapter:
 
     def __init__(self, node):
         self.node = node
+        self.nearest = None  # (x, y) [m] of the last blocker named (_describe)
 
     def _people(self):
         """(P, 4) x, y [m], vx, vy [m/s] of the tracked people in the global frame now."""
@@ -257,10 +261,14 @@ class PeopleAdapter:
         return np.concatenate(rows).reshape(-1, 4), len(rows[0])
 
     def _describe(self, pose, blockers, tracked):
+        """Who the nearest of ``blockers`` is and where, in words ('' for nobody); kept as
+        :attr:`nearest` ((x, y) [m] in the global frame, or None) for ``~waiting_for``."""
+        self.nearest = None
         if not len(blockers):
             return ""
         d = np.hypot(blockers[:, 0] - pose[0], blockers[:, 1] - pose[1])
         i = int(np.argmin(d))
+        self.nearest = (float(blockers[i, 0]), float(blockers[i, 1]))
         what = "a person" if i < tracked else "something the map does not have (a person?)"
         return f"{what} at ({blockers[i, 0]:.2f}, {blockers[i, 1]:.2f}), {d[i]:.2f} m away"
 
@@ -356,6 +364,8 @@ class MoveBaseNode:
         self.global_plan_pub = rospy.Publisher("~TrajectoryPlannerROS/global_plan", Path, queue_size=1)
         self.local_plan_pub = rospy.Publisher("~TrajectoryPlannerROS/local_plan", Path, queue_size=1)
         self.action_goal_pub = rospy.Publisher("move_base/goal", MoveBaseActionGoal, queue_size=1)
+        self.waiting_for_pub = rospy.Publisher("~waiting_for", PointStamped, queue_size=1)
+        self._waiting_for_sent = -math.inf  # [s] ROS time of the last ~waiting_for
 
         self.tf_buffer = tf2_ros.Buffer(cache_time=rospy.Duration(30.0))
         self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
@@ -756,6 +766,8 @@ class MoveBaseNode:
             elif result.text.startswith(("sensor data is out of date", "transform timeout")):
                 rospy.logwarn_throttle(5.0, LOG + "standing: %s", result.text)
             last_text = result.text
+            if self.core.state == WAITING:
+                self._publish_waiting_for(now)
             if result.outcome:
                 self._end(result.outcome, result.text)
                 return
@@ -771,6 +783,18 @@ class MoveBaseNode:
                                        self.params.controller_frequency)
                 next_time = rospy.get_time()
         self._end("aborted", "move_base is shutting down")
+
+    def _publish_waiting_for(self, now):
+        """``~waiting_for``: where the nearest one the robot waits for stands, at most twice a second."""
+        nearest = getattr(self.core.people, "nearest", None)
+        if nearest is None or now - self._waiting_for_sent < 0.5:
+            return
+        msg = PointStamped()
+        msg.header.stamp = rospy.Time.now()
+        msg.header.frame_id = self.planner_costmap.global_frame
+        msg.point.x, msg.point.y = nearest
+        self.waiting_for_pub.publish(msg)
+        self._waiting_for_sent = now
 
     def _sleep_until(self, when):
         """Sleep on ROS time until ``when`` [s], waking early on a cancel; False on shutdown."""
