@@ -244,6 +244,60 @@ def test_a_second_place_not_reached_searches_where_the_robot_stopped_in_the_room
     assert "next place to search was not reached" in loc.status()[1]
 
 
+def test_a_drive_given_up_for_somebody_in_the_way_looks_at_them_first(loc):
+    """bench/locator.py seed 3: the user stood still in the corridor 0.67 m before the bedroom door, the
+    robot inside; move_base waited for "something the map does not have (a person?)" and gave up, and
+    gotoUser aborted without the Kinect ever seeing her upper body. Now the robot goes to a place of its
+    room about look_reach from whom it waited for, seeing them along a free line and facing them, and
+    searches from there; once per gotoUser. Who was waited for comes from move_base/waiting_for."""
+    from florence_locator.places import contains
+
+    loc.floor, loc.search_spots = _floor(), 2
+    user, robot = Pose(1.33, 6.13, -0.44), Pose(4.17, 8.22, 1.5)  # she in the corridor, the robot in the bedroom
+    commands = run_to_search(loc, robot=robot, user=user)
+    aid = commands[0].activity
+    assert names(commands) == [("send_goal", 3.0, 6.15, 0.0)]  # the corridor's hotspot
+    loc.goal_active(aid)
+    loc.waiting_for(1.38, 6.28)  # her legs, before the door
+    at_door = Pose(1.55, 6.9, -1.9)
+    after = loc.goal_done(aid, ABORTED, "people stood in the way for 60 s", at_door, 120.0)
+    assert [c.name for c in after] == ["send_goal"] and after[0].activity == aid
+    x, y, phi = after[0].args
+    assert contains(loc.rooms.polygons["bedroom"], x, y)  # the robot's room
+    assert math.hypot(x - 1.38, y - 6.28) == pytest.approx(loc.look_reach, abs=0.3)
+    assert loc.floor.line_of_sight([(x, y)], (1.38, 6.28))[0]  # through the door
+    assert abs(math.remainder(math.atan2(6.28 - y, 1.38 - x) - phi, math.tau)) < 1e-6  # facing her
+    state, text = loc.status()
+    assert state == ACTIVE and loc.activity.phase == NAVIGATE
+    assert "see who stands in the way at (1.38, 6.28)" in text and "people stood in the way" in text
+    # there: the search (her upper body in the Kinect's view)
+    assert names(loc.goal_done(aid, SUCCEEDED, "Goal reached.", Pose(x, y, phi), 140.0)) == [("search", True)]
+    assert "the place to see who stood in the way" in loc.status()[1]
+    # once per gotoUser: a second drive given up for somebody in the way ends it
+    loc.phase_status("ABORTED", 160.0, Pose(x, y, phi))  # nobody: to the corridor's second place ...
+    assert loc.activity.phase == NAVIGATE
+    loc.waiting_for(1.38, 6.28)
+    assert loc.goal_done(aid, ABORTED, "people stood in the way", at_door, 250.0) == []
+    assert loc.status()[0] == ABORTED and "could not reach corridor" in loc.status()[1]
+
+
+def test_no_look_without_somebody_in_the_way_or_a_line_of_sight(loc):
+    loc.floor = _floor()
+    robot = Pose(4.17, 8.22, 1.5)
+    commands = run_to_search(loc, robot=robot, user=Pose(1.33, 6.13, -0.44))
+    assert loc.goal_done(commands[0].activity, ABORTED, "no path", Pose(1.55, 6.9, -1.9), 60.0) == []  # nobody
+    assert loc.status()[0] == ABORTED
+    commands = run_to_search(loc, robot=robot, user=Pose(1.33, 6.13, -0.44))
+    aid = commands[-1].activity
+    loc.waiting_for(6.0, 6.1)  # in the corridor, behind the bedroom's east wall from every open place
+    assert loc.goal_done(aid, ABORTED, "people stood in the way", Pose(4.0, 8.0, 0.0), 60.0) == []
+    assert loc.status()[0] == ABORTED
+    loc.look_reach = 0.0  # off
+    commands = run_to_search(loc, robot=robot, user=Pose(1.33, 6.13, -0.44))
+    loc.waiting_for(1.38, 6.28)
+    assert loc.goal_done(commands[-1].activity, ABORTED, "people stood in the way", Pose(1.55, 6.9, -1.9), 60.0) == []
+
+
 def test_approach_failure_aborts_and_preempted_answers_are_ignored(loc):
     run_to_search(loc, robot=Pose(3.0, 4.0, 0.0))
     loc.detected(2.0, 2.0, 5.0)

@@ -506,3 +506,45 @@ def test_the_manuals_python_example_sends_the_robot_to_a_room(system, ros_master
             out = example.output()
             example.stop()
         assert example.proc.returncode == code and all(w in out for w in words), out
+
+
+def test_a_drive_given_up_for_somebody_in_the_way_looks_at_them_and_finds_the_user(system, publisher):
+    """move_base gives up the drive to the corridor while somebody stands in its way (move_base/waiting_for:
+    at the bedroom door's corridor side, where bench/locator.py's user stood unseen): the locator sends
+    the robot to a place of the bedroom about 2 m from them that sees them, facing them; the search
+    there finds the user and gotoUser succeeds."""
+    from geometry_msgs.msg import Point, PointStamped
+    from std_msgs.msg import Header
+
+    from florence_common_ros.mock_move_base import Reply
+
+    mock, base, tracker, behaviour = system["mock"], system["base"], system["tracker"], system["behaviour"]
+    her = (1.33, 6.13)
+    mock.pose = (4.17, 8.22, 1.5)  # in the bedroom, facing away from her
+    with base.lock:
+        base.pose = (0.0, 0.0, 0.0)
+    tracker.people = {7: her}
+    wait_for(lambda: _call("getRobotPosRoom").room == "bedroom", 10, what="the robot carried to the bedroom")
+    assert _call("setUserPosXYPhi", *her, 0.0).success and _call("getUserPosRoom").room == "corridor"
+    pub = publisher(f"{NS}/move_base/waiting_for", PointStamped)
+    n_goals = len(mock.goals)
+    behaviour["reply"] = lambda x, y, yaw, frame: (Reply("aborted", 2.0, "people stood in the way for 60 s")
+                                                   if (x, y) == (3.0, 6.15) else Reply("succeeded", 0.3))
+    try:
+        assert _call("gotoUser").success
+        for _ in range(10):  # while move_base waits, before it gives up
+            pub.publish(PointStamped(header=Header(frame_id="map"), point=Point(1.38, 6.28, 0.0)))
+            time.sleep(0.1)
+        done = _wait_status({"SUCCEEDED", "ABORTED", "PREEMPTED"}, 90, system)
+    finally:
+        behaviour["reply"] = Reply("succeeded", 0.3)
+    assert done.status == "SUCCEEDED", done.message
+    assert "gave up while somebody stood in its way at (1.38, 6.28)" in done.message, done.message
+    goals = mock.goals[n_goals:]
+    assert goals[0][:2] == pytest.approx((3.0, 6.15))  # the corridor's hotspot, given up
+    x, y, yaw = goals[1][:3]  # where to look from
+    assert _call("getRobotPosRoom").room in ("bedroom", "corridor")
+    assert 6.8 < y < 10.0 and math.hypot(x - 1.38, y - 6.28) == pytest.approx(2.0, abs=0.3)
+    assert abs(math.remainder(math.atan2(6.28 - y, 1.38 - x) - yaw, math.tau)) < 1e-3
+    approach = goals[-1]
+    assert math.hypot(approach[0] - her[0], approach[1] - her[1]) == pytest.approx(0.5, abs=1e-3)

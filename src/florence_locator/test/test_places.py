@@ -236,6 +236,7 @@ def test_lookout_from_a_search_outside_the_room_behind_a_wall():
     spot = floor.lookout(half, [(3.3, 1.5)], reach=2.5, clearance=0.45)
     assert spot is not None and spot.x < 2.0 and floor.problem(spot.x, spot.y, 0.45) is None
     assert not floor.line_of_sight([[spot.x, spot.y]], (3.3, 1.5))[0]  # none sees it: the line is not asked
+    assert floor.lookout(half, [(3.3, 1.5)], reach=2.5, clearance=0.45, need_sight=True) is None  # unless needed
 
 
 def test_lookout_refuses_a_room_with_no_open_place():

@@ -19,7 +19,12 @@ goal). gotoUser is ACTIVE through its phases:
 
 1. ``navigate``: to the hotspot of the room where the user was last known (skipped when the
    robot is in that room already, or when the user's room is unknown). A failed leg that still
-   ends in the user's room goes on with the search;
+   ends in the user's room goes on with the search. A leg move_base gave up on while somebody
+   stood in its way (move_base's ``~waiting_for``: :meth:`Locator.waiting_for`) sends the robot,
+   once per gotoUser, to a place about ``look_reach`` from them with a free line of sight
+   (places.FloorMap.lookout), facing them, and the search begins there: who stands still close in
+   front of the robot is unknown to the tracker (the Kinect sees no upper body nearer than about
+   1.1 m, and the laser confirms walkers), and that may be the user;
 2. ``search``: detect_users turns in 45 degree steps (its status ACTIVE, then either a
    ``/detected_user`` or ABORTED after a full turn). A full turn with nobody sends the robot to
    another place in the room to search again (``search_spots`` places in all; see
@@ -77,6 +82,9 @@ class Activity:
     heard: float = 0.0  # [s] the phase's node last sent a status
     notes: list = field(default_factory=list)
     searched: list = field(default_factory=list)  # gotoUser: (x, y) [m] of every full turn with nobody
+    leg: str = "the hotspot"  # gotoUser: where the navigate phase drives to, in words
+    blocked: tuple | None = None  # gotoUser: (x, y) [m] of whom move_base last waited for on this leg
+    looked: bool = False  # gotoUser: the robot went to look at who stood in its way (once)
 
     def describe(self):
         phase = f" [{self.phase}]" if self.phase and self.state in RUNNING else ""
@@ -89,7 +97,7 @@ class Locator:
     returns what the node must do (a list of :class:`Command`); calls also return (ok, message)."""
 
     def __init__(self, rooms, hotspots, floor=None, timeouts=None, hotspot_clearance=0.15, sighting_margin=0.5,
-                 sighting_clearance=0.25, search_spots=1, lookout_reach=2.5, lookout_clearance=0.45):
+                 sighting_clearance=0.25, search_spots=1, lookout_reach=2.5, lookout_clearance=0.45, look_reach=2.0):
         self.rooms, self.hotspots = rooms, hotspots
         self.floor = floor  # places.FloorMap, or None until the map comes
         self.timeouts = timeouts or Timeouts()
@@ -100,6 +108,7 @@ class Locator:
         # gotoUser searches from up to this many places of the user's room (1: the seed's one full turn)
         self.search_spots = max(1, int(search_spots))
         self.lookout_reach, self.lookout_clearance = lookout_reach, lookout_clearance  # places.FloorMap.lookout
+        self.look_reach = look_reach  # [m] from whom stood in the way (0: no look)
         self.user = None  # Pose of the user, None until some sensor says where
         self.user_source = ""
         self.override = False
@@ -225,10 +234,8 @@ class Locator:
             a.notes.append(f"already in {user_room}: no drive to its hotspot")
             commands += self._phase(a, SEARCH, now, f"searching for the user in {user_room} (detect_users)")
         else:
-            a.phase, a.phase_started = NAVIGATE, now
-            a.text = f"going to the hotspot of {user_room}, where the user was last known"
-            self.last_goal = spot
-            commands.append(Command("send_goal", spot.as_tuple(), a.id))
+            commands += self._drive(a, spot, now, "the hotspot",
+                                    f"going to the hotspot of {user_room}, where the user was last known")
         return True, f"accepted: {a.text}" + "".join(f"; {n}" for n in a.notes), commands
 
     # --- events -------------------------------------------------------------------------------------------
@@ -253,14 +260,22 @@ class Locator:
             return self._end(a, state, words, cancel_goal=False)
         if a.phase != NAVIGATE:
             return []
-        place = "the next place to search" if a.searched else "the hotspot"
+        place = a.leg
         if state == SUCCEEDED:
-            return self._phase(a, SEARCH, now, f"at {place} of {a.room}; searching for the user (detect_users)")
+            return self._phase(a, SEARCH, now, f"at {place} ({a.room}); searching for the user (detect_users)")
         if robot is not None and self.room_of(robot) == a.room:
             a.notes.append(f"{place} was not reached ({state}: {text}), but the robot is in {a.room}")
             return self._phase(a, SEARCH, now, f"searching for the user in {a.room} (detect_users)")
-        return self._end(a, ABORTED, f"could not reach {a.room} to search for the user: move_base {state}: {text}",
-                         cancel_goal=False)
+        look = self._look(a, robot, now, f"{state}: {text}") if state == ABORTED else []
+        return look or self._end(a, ABORTED, f"could not reach {a.room} to search for the user: move_base {state}: "
+                                 f"{text}", cancel_goal=False)
+
+    def waiting_for(self, x, y):
+        """move_base waits for somebody at (x, y) [m, map] in its way (its ``~waiting_for``): kept for
+        the leg gotoUser drives (:meth:`_look`, should move_base give up)."""
+        a = self.activity
+        if a is not None and a.kind == GOTO_USER and a.state in RUNNING and a.phase == NAVIGATE:
+            a.blocked = (float(x), float(y))
 
     def sighted(self, x, y, now):
         """The tracker reports somebody at (x, y) [m, map] near the robot. While gotoUser drives to the
@@ -347,8 +362,31 @@ class Locator:
             return self._end(a, ABORTED, f"detect_users found {NOBODY} at {where} (or could not use the tracker; "
                              "see its log)")
         a.notes.append(f"{NOBODY} at {where}")
-        a.phase, a.phase_started = NAVIGATE, now
-        a.text = f"going to ({spot.x:.2f}, {spot.y:.2f}) in {a.room} to search again"
+        return self._drive(a, spot, now, "the next place to search",
+                           f"going to ({spot.x:.2f}, {spot.y:.2f}) in {a.room} to search again")
+
+    def _look(self, a, robot, now, why):
+        """move_base gave up the leg (``why``) while somebody stood in its way at ``a.blocked``: the drive
+        to a place of the robot's room about look_reach from them that sees them along a free line,
+        facing them, where the search begins (once per gotoUser); [] when there is none."""
+        if a.looked or a.blocked is None or robot is None or self.floor is None or self.look_reach <= 0.0:
+            return []
+        polygon = self.rooms.polygons.get(self.room_of(robot))
+        if polygon is None:
+            return []
+        spot = self.floor.lookout(polygon, [a.blocked], self.look_reach, self.lookout_clearance, need_sight=True)
+        if spot is None:
+            return []
+        bx, by = a.blocked
+        a.looked = True
+        a.notes.append(f"move_base gave up while somebody stood in its way at ({bx:.2f}, {by:.2f}) ({why}): "
+                       f"looking at them from ({spot.x:.2f}, {spot.y:.2f})")
+        return self._drive(a, spot, now, "the place to see who stood in the way", f"going to ({spot.x:.2f}, "
+                           f"{spot.y:.2f}) to see who stands in the way at ({bx:.2f}, {by:.2f})")
+
+    def _drive(self, a, spot, now, leg, text):
+        """gotoUser's navigate phase to ``spot`` (a Pose), ``leg`` naming it."""
+        a.phase, a.phase_started, a.leg, a.blocked, a.text = NAVIGATE, now, leg, None, text
         self.last_goal = spot
         return [Command("send_goal", spot.as_tuple(), a.id)]
 

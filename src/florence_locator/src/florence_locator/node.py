@@ -23,6 +23,8 @@ ROS Subscribers:
         user's room (one there, within ~sighting_range, ends the drive and starts the search).
     map (nav_msgs/OccupancyGrid): the robot's map, to refuse hotspots and goals in walls or off it.
     move_base/goal (move_base_msgs/MoveBaseActionGoal): every client's goals (getGoalPos*).
+    move_base/waiting_for (geometry_msgs/PointStamped): whom move_base waits for in its way; should it
+        give up gotoUser's drive, the robot looks at them from ~look_reach first.
 
 ROS Publishers:
     detect_user/cmd (std_msgs/Bool): start (true) or stop (false) the search.
@@ -44,7 +46,7 @@ import numpy as np
 import rosgraph
 import rospy
 import tf2_ros
-from geometry_msgs.msg import PoseStamped
+from geometry_msgs.msg import PointStamped, PoseStamped
 from move_base_msgs.msg import MoveBaseAction, MoveBaseActionGoal, MoveBaseGoal
 from nav_msgs.msg import OccupancyGrid
 from std_msgs.msg import Bool, String
@@ -91,6 +93,10 @@ PARAMS = ParamTable(
           "Kinect does not see a person seated within about 1.1 m) ...", unit="m", gt=0),
     Param("lookout_clearance", float, 0.45, "... at least this far from walls and furniture of the map (no "
           "doorway), seeing the last place along a free line", unit="m", ge=0),
+    Param("look_reach", float, 2.0, "gotoUser: when move_base gives up the drive while somebody stands in its way "
+          "(move_base/waiting_for), the robot looks at them from a place about this far that sees them, and "
+          "searches from there, once (a still person close in front is unknown to the tracker; 0: give up at "
+          "once)", unit="m", ge=0),
     Param("server_wait", float, 3.0, "a go-to call waits this long (wall time) for move_base's action server to "
           "connect before it is refused (a call just after start-up)", unit="s", ge=0, le=30),
 )
@@ -112,7 +118,8 @@ class FlorenceLocatorNode:
                                                                 p.approach_timeout),
                             hotspot_clearance=p.hotspot_clearance, sighting_margin=p.sighting_margin,
                             sighting_clearance=p.sighting_clearance, search_spots=p.search_spots,
-                            lookout_reach=p.lookout_reach, lookout_clearance=p.lookout_clearance)
+                            lookout_reach=p.lookout_reach, lookout_clearance=p.lookout_clearance,
+                            look_reach=p.look_reach)
         self.lock = threading.RLock()
         self.events = queue.Queue()  # actionlib's callbacks, handled by the tick thread
         self.last_save_error = ""
@@ -135,6 +142,7 @@ class FlorenceLocatorNode:
         rospy.Subscriber("map", OccupancyGrid, self._on_map, queue_size=1)
         rospy.Subscriber("move_base/goal", MoveBaseActionGoal, self._on_any_goal, queue_size=5)
         rospy.Subscriber("filtered_tracked_users", TrackedUsers, self._on_users, queue_size=2)
+        rospy.Subscriber("move_base/waiting_for", PointStamped, self._on_waiting_for, queue_size=2)
 
         handlers = (
             ("getUserPosRoom", "GetUserPosRoom", self.get_user_pos_room),
@@ -268,6 +276,19 @@ class FlorenceLocatorNode:
                 with self.lock:
                     self._execute(self.core.sighted(float(x), float(y), self.now()))
                 return
+
+    def _on_waiting_for(self, msg):
+        """Whom move_base waits for (activity.Locator.waiting_for), in the map frame."""
+        x, y = msg.point.x, msg.point.y
+        frame = msg.header.frame_id.lstrip("/")
+        if frame and frame != self.p.map_frame:
+            m, _why = lookup_matrix(self.tf_buffer, self.p.map_frame, frame, rospy.Time(0), 0.0)
+            if m is None:
+                return
+            x, y = (m @ np.array([x, y, 0.0, 1.0]))[:2]
+        if math.isfinite(x) and math.isfinite(y):
+            with self.lock:
+                self.core.waiting_for(float(x), float(y))
 
     def _on_map(self, msg):
         info = msg.info

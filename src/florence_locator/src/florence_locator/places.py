@@ -251,14 +251,14 @@ class FloorMap(Grid):
             best = min(best, math.hypot(x - ax - t * dx, y - ay - t * dy))
         return best
 
-    def lookout(self, polygon, searched, reach=2.5, clearance=0.45, step=0.1):
+    def lookout(self, polygon, searched, reach=2.5, clearance=0.45, step=0.1, need_sight=False):
         """Where to search a room again after full turns at ``searched`` [(x, y), ...] found nobody:
         the Pose inside ``polygon``, ``clearance`` [m] from every obstacle (no doorway), that sees the
         last searched spot along a free line, whose distance to the nearest searched spot is nearest
         ``reach`` [m] (far enough for the Kinect to see a person sitting by that spot, near enough
         to see her well), the most open of equals; facing the last spot. When no open place sees the
-        last spot (it lies outside the room, behind a wall), the line of sight is not asked. None when
-        no point qualifies."""
+        last spot (it lies outside the room, behind a wall), the line of sight is not asked, unless
+        ``need_sight`` (where to look at somebody from). None when no point qualifies."""
         poly = np.asarray(polygon, dtype=float)
         (x0, y0), (x1, y1) = poly.min(axis=0), poly.max(axis=0)
         xs, ys = np.meshgrid(np.arange(x0 + step / 2, x1, step), np.arange(y0 + step / 2, y1, step))
@@ -272,6 +272,8 @@ class FloorMap(Grid):
         spots = np.asarray(searched, dtype=float).reshape(-1, 2)
         last = spots[-1]
         seen = self.line_of_sight(pts, last)
+        if need_sight and not seen.any():
+            return None
         if seen.any():  # else the last search was outside the room, out of its sight (a sighting from the corridor)
             pts, room = pts[seen], room[seen]
         dist = np.min(np.hypot(pts[:, None, 0] - spots[None, :, 0], pts[:, None, 1] - spots[None, :, 1]), axis=1)
