@@ -247,6 +247,26 @@ def test_align_blocked_by_the_users_knees_near_safe_distance_is_as_near_as_it_go
         assert 0.61 < nearest < 0.65
 
 
+def test_align_held_at_rest_by_something_else_ends_as_blocked():
+    """The collision monitor (which sees more than the laser's free space here) stops the straight move
+    toward a seated user: commanded but at rest for held_time, the move ends as blocked ahead and the
+    robot faces her again, instead of pushing until the 25 s timeout (make demo, 29 Nov, ABORTED). As
+    near as it goes within blocked_accept: success."""
+    user = (0.0, 0.0)
+    robot = Robot(0.75, 0.0, math.pi)
+    a, t, dt = Align(AlignParams(), 0.0), 0.0, 0.05
+    while t < 10.0:
+        step = a.update(t, (robot.x, robot.y, robot.yaw), (robot.v, robot.w), user)
+        if step.done:
+            break
+        held = math.hypot(robot.x, robot.y) <= 0.62  # the monitor stops every forward command from here
+        robot.step(0.0 if held and step.v > 0 else step.v, step.w, dt)
+        t += dt
+    assert step.done and t < 5.0, (t, step.why)
+    assert step.ok and "blocked ahead (held at rest" in step.why, step.why
+    assert math.hypot(robot.x, robot.y) == pytest.approx(0.61, abs=0.02)
+
+
 def test_align_backs_up_only_as_far_as_the_map_allows():
     user = (0.0, 0.0)
     robot = Robot(0.3, 0.0, math.pi)

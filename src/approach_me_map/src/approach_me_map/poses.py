@@ -237,6 +237,7 @@ class AlignParams:
     accept_distance: float = 0.1  # [m] success: |distance - safe_distance| within this ...
     accept_angle: float = math.radians(10.0)  # [rad] ... and facing the user within this
     blocked_accept: float = 0.15  # [m] success too: blocked ahead (the user's knees) at most this beyond safe_distance
+    held_time: float = 1.5  # [s] a straight move at rest this long (the collision monitor holds it) is blocked
     timeout: float = 25.0  # [s]
 
 
@@ -263,6 +264,7 @@ class Align:
         self.started = now
         self.blocked = ""
         self.sign = 0.0  # direction of the turn or move under way (crossing the target ends it)
+        self.held_since = None  # [s] since when the straight move has been commanded but at rest
 
     @staticmethod
     def geometry(robot, user):
@@ -295,9 +297,14 @@ class Align:
             remaining = distance - p.safe_distance
             free = front_free - p.front_margin if remaining > 0 else back_free - p.back_margin
             crossed = self.sign * remaining < 0 and abs(remaining) <= p.distance_overshoot
-            if abs(remaining) <= p.distance_tolerance or free <= 0.0 or crossed:
-                if free <= 0.0 and abs(remaining) > p.distance_tolerance:
-                    self.blocked = "blocked ahead" if remaining > 0 else "no room behind"
+            # held: commanded, yet at rest for held_time (the collision monitor stops what the laser's
+            # free space here allows: make demo's robot stood 25 s so in front of a seated user, ABORTED)
+            self.held_since = (self.held_since if self.held_since is not None else now) if at_rest else None
+            held = self.sign != 0.0 and self.held_since is not None and now - self.held_since >= p.held_time
+            if abs(remaining) <= p.distance_tolerance or free <= 0.0 or crossed or held:
+                if (free <= 0.0 or held) and abs(remaining) > p.distance_tolerance:
+                    way = "blocked ahead" if remaining > 0 else "no room behind"
+                    self.blocked = way + (" (held at rest: the collision monitor?)" if held and free > 0.0 else "")
                 self.phase, self.sign = "turn_again", 0.0
                 return AlignStep()
             self.sign = math.copysign(1.0, remaining)
@@ -313,7 +320,7 @@ class Align:
         near = abs(distance - p.safe_distance) <= p.accept_distance
         # a seated user's knees reach 0.3 m toward the robot: at 0.5 m the nose would be on them; the
         # laser stops it short, as near as it goes, and that is where a polite robot stands
-        as_near = self.blocked == "blocked ahead" and 0.0 < distance - p.safe_distance <= p.blocked_accept
+        as_near = self.blocked.startswith("blocked ahead") and 0.0 < distance - p.safe_distance <= p.blocked_accept
         ok = not why and (near or as_near) and abs(error) <= p.accept_angle
         text = why or (f"{distance:.2f} m from the user, facing them within {math.degrees(abs(error)):.0f} deg"
                        + (f" ({self.blocked})" if self.blocked else ""))
