@@ -299,7 +299,8 @@ class Align:
             crossed = self.sign * remaining < 0 and abs(remaining) <= p.distance_overshoot
             # held: commanded, yet at rest for held_time (the collision monitor stops what the laser's
             # free space here allows: make demo's robot stood 25 s so in front of a seated user, ABORTED)
-            self.held_since = (self.held_since if self.held_since is not None else now) if at_rest else None
+            still = abs(speed[0]) < p.still_rate  # (the monitor lets turning on the spot through)
+            self.held_since = (self.held_since if self.held_since is not None else now) if still else None
             held = self.sign != 0.0 and self.held_since is not None and now - self.held_since >= p.held_time
             if abs(remaining) <= p.distance_tolerance or free <= 0.0 or crossed or held:
                 if (free <= 0.0 or held) and abs(remaining) > p.distance_tolerance:
