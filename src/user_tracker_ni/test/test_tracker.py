@@ -579,3 +579,33 @@ def test_a_seated_person_who_gets_up_and_walks_is_followed_by_the_laser():
     assert seated.seat is None and math.hypot(seated.position[0] - end[0], seated.position[1] - end[1]) < 0.15
     with pytest.raises(ValueError, match="laser_gate"):  # a reach at the gate: her track would stand at the seat
         TrackerParams(seated_reach=TrackerParams.laser_gate).validate()
+
+
+SKIN_AND_SHIRT = reid.signature(np.vstack([np.tile([[222, 184, 153]], (150, 1)), np.tile([[200, 20, 20]], (50, 1))]))
+
+
+def test_a_seated_person_whose_top_the_image_cuts_off_keeps_her_track_and_seat():
+    """Close up the image cuts a seated person's top off ("unknown"): the band of colours it keeps above her
+    hips is mostly her head's, unlike her shirt. At her seat that detection is hers whatever its colours, and
+    they are not learnt; a standing person's track, or a detection away from the seat, keeps the colour gate
+    (a new track starts). Before, the seated user's track ended there and the new one stood on her shins."""
+    assert reid.distance(SKIN_AND_SHIRT, RED) > TrackerParams().appearance_gate
+
+    def close_up(posture, at=(2.0, 1.0)):
+        tracker, rng = Tracker(), np.random.default_rng(6)
+        seated_then_close(tracker, rng, posture=posture, seconds=2.0)
+        (track,) = tracker.published()
+        learnt, t0 = track.signature.copy(), track.last_update
+        for k in range(1, int(2 * RATE)):
+            tracker.update(t0 + k / RATE, [Detection(at[0], at[1], KINECT, 0.08, SKIN_AND_SHIRT, posture="unknown")],
+                           KINECT)
+        return tracker, track, learnt
+
+    tracker, track, learnt = close_up("sitting")
+    assert [tr for tr in tracker.tracks] == [track] and track.seat is not None
+    assert math.hypot(track.position[0] - 2.0, track.position[1] - 1.0) < 0.04
+    assert reid.distance(track.signature, learnt) < 1e-6
+    for posture, at in (("standing", (2.0, 1.0)), ("sitting", (2.0, 1.45))):  # 0.45 m off her seat: somebody else
+        tracker, track, _ = close_up(posture, at)
+        assert any(tr is not track for tr in tracker.tracks), posture
+        assert reid.distance(track.signature, RED) < 0.1, posture

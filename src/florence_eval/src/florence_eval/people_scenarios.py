@@ -38,6 +38,12 @@ def shipped_people():
     return {p["id"]: {k: v for k, v in p.items() if k != "id"} for p in people}
 
 
+SEAT = (3.0, 2.4, 2.8)  # [m, m, rad] the day's seat of the user in the living room, facing west-north-west
+SEATED_APPROACH = Scenario(
+    "coming_to_the_seated", (SEAT[0] + 2.4 * math.cos(SEAT[2]), SEAT[1] + 2.4 * math.sin(SEAT[2]), SEAT[2] - math.pi), {
+        "erin": {"pose": list(SEAT), "posture": "sitting", "shirt": RED, "height": 1.63, "build": 0.9}},
+    12.0, drive=[(0.2, 0.0, 1.75 / 0.2)])
+
 SCENARIOS = [
     Scenario("robot_still", (0.6, 2.5, 0.0), {
         "alice": {"path": [[2.0, 2.6], [4.4, 2.6]], "speed": 0.5, "mode": "back_and_forth", "pause": 1.0,
@@ -62,6 +68,9 @@ SCENARIOS = [
                 "height": 1.85, "build": 1.15}}, 30.0),
     Scenario("sitting", (0.6, 2.2, 0.0), {
         "dave": {"pose": [3.2, 2.5, math.pi], "posture": "sitting", "shirt": YELLOW}}, 20.0),
+    # the robot drives up to the day's seated user (florence_scenarios.day), from 2.4 m in front of her to 0.65 m,
+    # as approach_me_map does: the image cuts her top off from about 1.7 m, nearer than 1.1 m her upper body
+    SEATED_APPROACH,
     Scenario("leave_and_return", (0.6, 2.5, 0.0), {
         "alice": {"path": LEAVE_AND_RETURN, "speed": 0.6, "mode": "back_and_forth", "pause": 1.5, "shirt": RED}},
         60.0),

@@ -70,7 +70,11 @@ seat, the track stood where her legs are, and the robot coming to her came that 
 keep her track alive but do not move it while they lie within ``seated_reach`` of the seat (less
 than ``laser_gate``: her legs walking off must stay hers). A laser detection farther from the seat
 (she got up and walked), or a Kinect detection of her standing, ends it; one whose top the image
-cuts off ("unknown") says nothing.
+cuts off ("unknown") says nothing of her posture, and its colours nothing of her: close up the
+band the image keeps above her hips is her head's as much as her shirt's (a robot driving to the
+seated user lost her track at 1.7 m, the new one had no seat and stood on her shins, 0.12 m nearer
+the robot), so such a detection within ``seated_reach`` of the seat is hers whatever its colours,
+and they are not learnt.
 
 Facing (:attr:`Track.facing`): a person walking at ``facing_walk_speed`` or faster faces the way
 they walk; a still one faces the way the Kinect's detections said (depth_people: a seated
@@ -385,7 +389,7 @@ class Tracker:
             if det.signature is None:
                 continue
             for i, tr in enumerate(tracks):
-                if tr.signature is None or not np.isfinite(cost[i, j]):
+                if tr.signature is None or not np.isfinite(cost[i, j]) or self._cut_at_seat(tr, det):
                     continue
                 a = reid.distance(tr.signature, det.signature)
                 if a > p.appearance_gate and tr.signatures >= p.appearance_after:
@@ -421,6 +425,13 @@ class Tracker:
         track.seat, track.sitting_count = None, 0
         return False
 
+    def _cut_at_seat(self, track, det):
+        """Whether ``det`` is the Kinect's view of a seated person, her top cut off by the image
+        (posture "unknown"), at her seat: the colours of such a view are not her shirt's (the band
+        below the image's top row holds her head; module docstring), so they neither gate nor teach."""
+        return (det.source == KINECT and det.posture == "unknown" and track.seat is not None
+                and float(np.hypot(det.x - track.seat[0], det.y - track.seat[1])) <= self.params.seated_reach)
+
     def _crowded(self, track, det):
         """Another track within ``signature_clearance`` of the detection: the Kinect may have seen
         the two people as one, or one half hidden by the other, so its colours are not learnt."""
@@ -452,7 +463,7 @@ class Tracker:
             if det.facing is not None and math.isfinite(det.facing):
                 track.facing_sum = track.facing_sum + np.array([math.cos(det.facing), math.sin(det.facing)])
                 track.facing_count += 1
-            if det.signature is not None and not self._crowded(track, det):
+            if det.signature is not None and not self._crowded(track, det) and not self._cut_at_seat(track, det):
                 track.signatures += 1
                 track.signature = det.signature if track.signature is None else \
                     reid.blend(track.signature, det.signature, max(1.0 / track.signatures, 0.05))
