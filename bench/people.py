@@ -4,7 +4,8 @@
     source devel/setup.bash && /usr/bin/python3 bench/people.py --offline [--seeds 1,2,3]
 
 The scenarios are florence_eval.people_scenarios (robot still, turning, driving, two people
-crossing, two passing along the line of sight, a person sitting, leaving and returning, beside
+crossing, two passing along the line of sight, a person sitting, the robot driving up
+to a seated person, leaving and returning, beside
 the robot, a walker by the driving robot, the apartment's residents as shipped, clutter
 only). The default run is what a user runs: florence_sim (the apartment with its person-sized
 clutter, nobody but the scenario's people), map_server with the apartment's map, amcl, and
