@@ -390,3 +390,27 @@ def test_set_user_pos_room_refuses_bad_labels(loc, label, words):
 def test_a_detection_that_is_not_finite_is_ignored(loc):
     loc.detected(math.nan, 1.0, 0.0)
     assert loc.user is None
+
+
+def test_after_a_sighting_on_the_way_the_next_search_place_keeps_its_distance_from_it(loc):
+    """bench/locator.py seed 2: the robot saw the seated user in the bathroom on the way and stopped 0.85 m from
+    her, too near for the Kinect to see her upper body; its full turn there found nobody, and so did the next
+    one at (6.34, 7.15), 1.14 m from her, chosen far from the first place (a place far from both is 0.95 m from
+    her in the small bathroom). The next place is now chosen from where she was seen: far enough, seeing and
+    facing that spot."""
+    from florence_locator.places import contains
+
+    loc.floor, loc.search_spots = _floor(), 2
+    loc.set_user_xyphi(Pose(6.5, 7.7, 0.0))
+    ok, _, commands = loc.goto_user(Pose(1.6, 3.8, 0.0), 0.0)
+    assert ok
+    aid = commands[0].activity
+    assert names(loc.sighted(6.13, 8.23, 10.0)) == [("cancel_goal",), ("search", True)]
+    loc.phase_status("ACTIVE", 11.0)
+    after = loc.phase_status("ABORTED", 30.0, Pose(6.57, 7.52, -1.3))
+    assert [c.name for c in after] == ["send_goal"] and after[0].activity == aid
+    x, y, phi = after[0].args
+    assert contains(loc.rooms.polygons["bathroom"], x, y)
+    assert math.hypot(x - 6.13, y - 8.23) >= 1.4, (x, y)
+    assert loc.floor.line_of_sight([(x, y)], (6.13, 8.23))[0]
+    assert abs(math.remainder(math.atan2(8.23 - y, 6.13 - x) - phi, math.tau)) < 1e-6

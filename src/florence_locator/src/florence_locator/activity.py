@@ -85,6 +85,7 @@ class Activity:
     leg: str = "the hotspot"  # gotoUser: where the navigate phase drives to, in words
     blocked: tuple | None = None  # gotoUser: (x, y) [m] of whom move_base last waited for on this leg
     looked: bool = False  # gotoUser: the robot went to look at who stood in its way (once)
+    sighting: tuple | None = None  # gotoUser: (x, y) [m] of the person seen on the way that began the search
 
     def describe(self):
         phase = f" [{self.phase}]" if self.phase and self.state in RUNNING else ""
@@ -290,6 +291,7 @@ class Locator:
                                        or self.floor.depth_inside(self.rooms.polygons[a.room], x, y)
                                        < self.sighting_margin):
             return []
+        a.sighting = (float(x), float(y))
         a.notes.append(f"saw somebody at ({x:.2f}, {y:.2f}) in {a.room} on the way: searching from there")
         return [Command("cancel_goal", (), a.id), *self._phase(a, SEARCH, now, f"searching for the user in {a.room} "
                                                                "(detect_users)")]
@@ -349,14 +351,22 @@ class Locator:
     # --- helpers -------------------------------------------------------------------------------------------
     def _search_again(self, a, robot, now):
         """detect_users turned a full circle at ``robot`` and found nobody: the drive to the next place
-        to search the room from, or the end."""
+        to search the room from, or the end. After a person seen on the way (``a.sighting``), the next
+        place is chosen from where they were (about lookout_reach from it, seeing it, facing it), not
+        from the places searched: the search that began where the robot stopped may have been too
+        near a seated person for the Kinect (about 1.3 m; the tracker restarted for each step forgets
+        her), and in a small room a place far from that one can be as near her."""
         if robot is not None:
             a.searched.append((robot.x, robot.y))
         where = " and ".join(f"({x:.2f}, {y:.2f})" for x, y in a.searched) or "here"
         spot = None
         if len(a.searched) < self.search_spots and self.floor is not None and a.room in self.rooms.polygons:
-            spot = self.floor.lookout(self.rooms.polygons[a.room], a.searched, self.lookout_reach,
-                                      self.lookout_clearance)
+            polygon = self.rooms.polygons[a.room]
+            if a.sighting is not None:
+                spot = self.floor.lookout(polygon, [a.sighting], self.lookout_reach, self.lookout_clearance,
+                                          need_sight=True)
+            if spot is None:
+                spot = self.floor.lookout(polygon, a.searched, self.lookout_reach, self.lookout_clearance)
         a.notes = [n for n in a.notes if not n.startswith(NOBODY)]  # the text names every place
         if spot is None:
             return self._end(a, ABORTED, f"detect_users found {NOBODY} at {where} (or could not use the tracker; "
