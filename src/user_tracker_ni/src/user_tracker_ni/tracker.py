@@ -418,7 +418,7 @@ class Tracker:
         more (module docstring)."""
         if track.seat is None:
             return False
-        if float(np.hypot(det.x - track.seat[0], det.y - track.seat[1])) <= self.params.seated_reach:
+        if self._near_seat(track, det):
             x, y = track.seat
             track.filter.stand(x, y, vel_std=0.1)
             return True
@@ -429,8 +429,12 @@ class Tracker:
         """Whether ``det`` is the Kinect's view of a seated person, her top cut off by the image
         (posture "unknown"), at her seat: the colours of such a view are not her shirt's (the band
         below the image's top row holds her head; module docstring), so they neither gate nor teach."""
-        return (det.source == KINECT and det.posture == "unknown" and track.seat is not None
-                and float(np.hypot(det.x - track.seat[0], det.y - track.seat[1])) <= self.params.seated_reach)
+        return det.source == KINECT and det.posture == "unknown" and self._near_seat(track, det)
+
+    def _near_seat(self, track, det):
+        """Whether ``det`` lies within seated_reach of ``track``'s seat (False without one)."""
+        return track.seat is not None and \
+            float(np.hypot(det.x - track.seat[0], det.y - track.seat[1])) <= self.params.seated_reach
 
     def _crowded(self, track, det):
         """Another track within ``signature_clearance`` of the detection: the Kinect may have seen
