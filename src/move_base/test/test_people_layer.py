@@ -11,6 +11,7 @@ from move_base.costmap_2d import FREE_SPACE, INSCRIBED_INFLATED_OBSTACLE, LETHAL
 from move_base.layers import KeepoutLayer, LayeredCostmap, ObservationSource
 from move_base.navfn import compute_potential, translate_costs
 from move_base.people_layer import (
+    GIVE_WAY_FAN,
     Person,
     ProxemicLayer,
     RecentPoints,
@@ -314,6 +315,25 @@ def test_give_way_leaves_the_corridor_through_the_door_behind():
     potential = compute_potential(translate_costs(c.costs, True, cell), cell)
     assert give_way_cells(potential, c, robot, person, keep_off=0.75, min_distance=1.0) is None
 
+
+
+def test_give_way_from_a_waiting_person_keeps_off_the_way_they_go_on_beyond_the_robot():
+    """Nav bench seed 1: a resident waited at the kitchen door for the robot, which gave way 0.96 m
+    to the side of her line but 1.5 m on into the kitchen, where she then walked. Beyond the robot a
+    still person's way widens (GIVE_WAY_FAN)."""
+    c = Costmap2D(140, 120, 0.05, -1.5, -3.0)
+    c.costs[...] = LETHAL_OBSTACLE
+    c.costs[52:68, 10:70] = FREE_SPACE  # a corridor y -0.4 .. 0.4, x -1.0 .. 2.0 (the door)
+    c.costs[10:110, 70:130] = FREE_SPACE  # the room beyond: x 2.0 .. 5.0, y -2.5 .. 2.5
+    person = np.array([[0.2, 0.0, 0.0, 0.0]])  # waiting in the corridor
+    robot = (1.2, 0.0)
+    cell = c.world_to_map(*robot)
+    potential = compute_potential(translate_costs(c.costs, True, cell), cell)
+    x, y = give_way_cells(potential, c, robot, person, keep_off=0.75, min_distance=1.0)
+    along = x - 0.2
+    assert x >= 2.0  # no room in the corridor: into the room
+    assert abs(y) >= 0.75 + (along - 1.0) * GIVE_WAY_FAN - 1e-9
+    assert abs(y) > 1.2  # not just beside her line at the room's edge (the old rule's (2.0, 0.75))
 
 # --- keep-out ------------------------------------------------------------------------------------
 def test_keepout_marks_lethal_before_inflation_and_changes_nothing_else():

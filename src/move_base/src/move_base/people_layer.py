@@ -211,6 +211,11 @@ class ProxemicLayer:
 GIVE_WAY_MIN_DISTANCE = 1.0  # [m]
 GIVE_WAY_KEEP_OFF = 0.75  # [m]
 GIVE_WAY_MAX_COST = 200
+# A person who stands waiting for the robot goes on past where it stood, and not necessarily straight:
+# beyond the robot their way widens by this much across per metre along (tan 30 degrees). Without it the
+# bench's robot gave way from a kitchen door 0.96 m to the side but 1.5 m on into the kitchen, where
+# the resident who had waited at the door then walked (nav100 seed 1, leg 35: 0.38 m between centres).
+GIVE_WAY_FAN = math.tan(math.radians(30.0))
 STILL_MARGIN = 0.1  # [m] a leg's distance from a person's centre
 
 
@@ -402,7 +407,9 @@ def give_way_cells(potential, costmap, robot_xy, people, keep_off, min_distance)
     for it to leave the line they walk along), on the robot's side of each person. Returns the
     cell's centre (x, y) [m] or None.
 
-    ``people`` (P, 4) (x, y, vx, vy); a walking person's way is their heading instead."""
+    ``people`` (P, 4) (x, y, vx, vy); a walking person's way is their heading instead. A still
+    person's way widens beyond the robot by GIVE_WAY_FAN across per metre along: where they go after
+    the place the robot leaves is not known."""
     people = np.asarray(people, dtype=float).reshape(-1, 4)
     ok = np.isfinite(potential)
     if not ok.any():
@@ -413,20 +420,23 @@ def give_way_cells(potential, costmap, robot_xy, people, keep_off, min_distance)
     good = np.ones(len(wx), dtype=bool)
     for px, py, vx, vy in people:
         speed = math.hypot(vx, vy)
+        dx, dy = robot_xy[0] - px, robot_xy[1] - py
+        norm = math.hypot(dx, dy)
         if speed > 0.2:
             ux, uy = vx / speed, vy / speed
+            need = keep_off
         else:
-            dx, dy = robot_xy[0] - px, robot_xy[1] - py
-            norm = math.hypot(dx, dy)
             if norm < 1e-6:
                 continue
             ux, uy = dx / norm, dy / norm
         rx, ry = wx - px, wy - py
         along = rx * ux + ry * uy
         across = np.abs(-rx * uy + ry * ux)
+        if speed <= 0.2:
+            need = keep_off + np.maximum(0.0, along - norm) * GIVE_WAY_FAN
         good &= np.hypot(rx, ry) >= min_distance
         # off the person's way: beside it, or behind the person (not reachable past them anyway)
-        good &= (across >= keep_off) | (along < -min_distance)
+        good &= (across >= need) | (along < -min_distance)
     if not good.any():
         return None
     best = int(np.argmin(np.where(good, potential[rows, cols], np.inf)))
