@@ -299,3 +299,23 @@ def test_a_stall_is_standing_still_near_the_pose_for_the_timeout():
     # standing still far from the pose (waiting for a person in a doorway) is move_base's business
     far = Stall(radius=0.3, timeout=5.0)
     assert not any(far.update(0.1 * k, (0.0, 0.0, 0.0), goal) for k in range(200))
+
+
+def test_lingering_near_the_pose_turning_to_and_fro_is_a_stall_too():
+    """make demo: beside the seated user's chair move_base turned to and fro (never still for
+    stall_timeout) until the trial's deadline; within the radius for ``linger`` s is a stall."""
+    from approach_me_map.poses import Stall
+
+    goal = (1.0, 0.0)
+    stall = Stall(radius=0.6, timeout=5.0, linger=12.0)
+    # 0.4 m from the pose, turning 0.3 rad one way and back every 0.5 s: never still
+    wobble = [(0.6, 0.05 * (k % 3), 0.3 * (k % 2)) for k in range(241)]
+    hits = [stall.update(0.05 * k, pose, goal) for k, pose in enumerate(wobble)]
+    assert not any(hits[:240]) and hits[240]  # at 12 s: the first stall
+    assert "for 12 s" in stall.why
+    # leaving the radius starts the count over
+    assert not stall.update(12.0, (-0.5, 0.0, 0.0), goal)
+    assert not stall.update(12.1, (0.6, 0.0, 0.3), goal) and not stall.update(23.9, (0.6, 0.0, 0.0), goal)
+    assert stall.update(24.1, (0.6, 0.0, 0.3), goal)
+    # without a linger (the default) the wobble is no stall
+    assert not any(Stall(radius=0.6, timeout=5.0).update(0.05 * k, pose, goal) for k, pose in enumerate(wobble))

@@ -108,6 +108,9 @@ PARAMS = ParamTable(
           "pose: its goal ends and the last half metre starts from there", unit="s", gt=0),
     Param("stall_radius", float, 0.6, "how near the pose a stall counts (move_base's xy_goal_tolerance is 0.25 m)",
           unit="m", gt=0),
+    Param("stall_linger", float, 12.0, "move_base's robot within ~stall_radius of the pose this long however it "
+          "moves (turning to and fro beside a chair): the same, unless it is behind the user (the next trial)",
+          unit="s", gt=0),
     Param("align", bool, True, "after move_base, turn to the user and drive to safe_distance (the last half "
           "metre); false: move_base's tolerance only"),
     Param("align_speed", float, _L.max_speed, "fastest straight move of the last half metre", unit="m/s", gt=0,
@@ -410,7 +413,7 @@ class ApproachMeMapNode:
 
         sent_goal = [None]
         started = sent = send()
-        stall, stalled, moves = Stall(p.stall_radius, p.stall_timeout), "", 0
+        stall, stalled, moves = Stall(p.stall_radius, p.stall_timeout, linger=p.stall_linger), "", 0
         announced = -math.inf
         try:
             while not done.wait(0.1) and not sent_goal[0].poll():
@@ -440,8 +443,8 @@ class ApproachMeMapNode:
                 robot, _ = self._robot(p.map_frame)
                 if robot is not None and stall.update(rospy.get_time(), robot, target):
                     self.client.cancel_goal()
-                    stalled = (f"move_base stood still {math.hypot(robot[0] - target[0], robot[1] - target[1]):.2f} "
-                               f"m from the pose for {p.stall_timeout:.0f} s; ")
+                    stalled = (f"move_base's robot {stall.why}, "
+                               f"{math.hypot(robot[0] - target[0], robot[1] - target[1]):.2f} m from the pose; ")
                     rospy.loginfo(LOG + stalled + "the last half metre from there")
                     break
         except Cancelled:
@@ -454,13 +457,13 @@ class ApproachMeMapNode:
             now_user = self.user
         near = robot is not None and math.hypot(robot[0] - now_user[0], robot[1] - now_user[1]) \
             < p.safe_distance + 0.6
-        if state != GoalStatus.SUCCEEDED and not stalled:
-            if not near:
+        if state != GoalStatus.SUCCEEDED:
+            if not near and not stalled:
                 return False, f"move_base {state_name(state)}: {text}"
             with self.lock:
                 facing = self.facing if use_facing else None
             if not last and behind(now_user, robot, facing, self.params.side_limit):  # it would end at her back
-                return False, f"move_base {state_name(state)} behind the user: {text}"
+                return False, stalled + f"move_base {state_name(state)} behind the user: {text}"
         moved = f"the pose moved {moves} time(s) with her; " if moves else ""
         if not p.align:
             return True, moved + stalled + f"move_base {state_name(state)}"

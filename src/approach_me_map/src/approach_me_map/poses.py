@@ -40,7 +40,8 @@ chair, took 106 and 132 s and once ABORTED after 200 s; with the pose behind her
 pose and never finish: its local planner refuses to turn the footprint's nose into her costs
 (the last 0.2-0.4 rad of yaw) and waits until the trial's timeout. A robot that has not moved
 for ``stall_timeout`` within ``stall_radius`` of the pose ends move_base's goal and does the
-last half metre from there.
+last half metre from there; so does one that has been within ``stall_radius`` for ``stall_linger``
+however it moved (turning to and fro beside a chair), unless it is behind her (then the next trial).
 
 A trial whose move_base goal failed ends with the last half metre from where the robot stands
 when that is within 0.6 m of the pose's distance from the user, but not from behind her
@@ -198,22 +199,33 @@ def _angle_cost(offset, p):
 class Stall:
     """Whether a robot driven by move_base stopped near its goal (module docstring): ``radius`` [m]
     around the goal, still (within ``moved`` [m] and ``turned`` [rad] of where it stood) for
-    ``timeout`` [s]."""
+    ``timeout`` [s], or within ``radius`` for ``linger`` [s] however it moved (turning to and fro,
+    replanning, backing off and coming on again: make demo's robot spent some 20 s so beside a seated
+    user's chair, its goal in her costs, until the trial's deadline sent it round to her back)."""
 
-    def __init__(self, radius, timeout, moved=0.05, turned=0.1):
+    def __init__(self, radius, timeout, moved=0.05, turned=0.1, linger=math.inf):
         self.radius, self.timeout, self.moved, self.turned = float(radius), float(timeout), moved, turned
+        self.linger = float(linger)
         self.anchor = None  # (x, y, yaw, t): where and since when the robot stands
+        self.entered = None  # [s] since when the robot has been within radius
+        self.why = ""  # what the stall was: standing still, or lingering
 
     def update(self, t, robot, goal):
         """``robot`` (x, y, yaw) and ``goal`` (x, y) at time ``t`` [s]: True once stalled."""
         x, y, yaw = robot
         if math.hypot(x - goal[0], y - goal[1]) > self.radius:
-            self.anchor = None
+            self.anchor = self.entered = None
             return False
+        if self.entered is None:
+            self.entered = t
+        if t - self.entered >= self.linger:
+            self.why = f"within {self.radius:.2f} m of the pose for {self.linger:.0f} s"
+            return True
         a = self.anchor
         if a is None or math.hypot(x - a[0], y - a[1]) > self.moved or abs(angles.diff(yaw, a[2])) > self.turned:
             self.anchor = (x, y, yaw, t)
             return False
+        self.why = f"stood still for {self.timeout:.0f} s"
         return t - a[3] >= self.timeout
 
 
