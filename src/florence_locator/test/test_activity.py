@@ -201,9 +201,12 @@ def test_nobody_found_searches_again_from_a_second_place_then_aborts(loc):
     assert [c.name for c in after] == ["send_goal"] and after[0].activity == aid
     x, y, phi = after[0].args
     assert contains(loc.rooms.polygons["living_room"], x, y)
-    assert math.hypot(x - 1.25, y - 3.05) == pytest.approx(loc.lookout_reach, abs=0.3)
     assert loc.floor.problem(x, y, loc.lookout_clearance) is None
-    assert abs(math.remainder(math.atan2(3.05 - y, 1.25 - x) - phi, math.tau)) < 1e-6  # facing the first place
+    # the place that sees most of what the first turn did not (FloorMap.unseen_lookout's own tests)
+    want = loc.floor.unseen_lookout(loc.rooms.polygons["living_room"], [(1.25, 3.05)], *loc.lookout_sight,
+                                    loc.lookout_clearance)
+    assert (x, y, phi) == pytest.approx((want.x, want.y, want.phi))
+    assert math.hypot(x - 1.25, y - 3.05) > loc.lookout_sight[0]
     assert loc.status()[0] == ACTIVE and loc.activity.phase == NAVIGATE and "search again" in loc.status()[1]
     assert "nobody in a full turn at (1.25, 3.05)" in loc.status()[1]
     assert names(loc.goal_done(aid, SUCCEEDED, "Goal reached.", Pose(x, y, phi), 50.0)) == [("search", True)]

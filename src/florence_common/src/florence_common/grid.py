@@ -5,12 +5,51 @@ the origin): which cell a point falls in, whether it is an obstacle, how far the
     grid.blocked_at([[1.0, 2.0]])      # [True] inside an occupied or unknown cell, or off the grid
     grid.clearance_at([[1.0, 2.0]])    # [m] from the cell's centre to the nearest blocked cell
     grid.line_of_sight([[0.0, 0.0]], (1.0, 2.0))  # [True] the segment crosses no blocked cell
+    grid.sight_matrix(starts, ends)    # [N, M] the same for every pair (a numba kernel)
+    grid.with_obstacles(keepout)       # this grid with another's blocked cells added
 """
 
 import math
 
 import numpy as np
 from scipy import ndimage
+
+_KERNELS = {}  # numba kernels, compiled on first use (importing numba costs the many users of this module time)
+
+
+def _kernel(name):
+    if name not in _KERNELS:
+        import numba
+
+        _KERNELS[name] = numba.njit(cache=True)(globals()[name])
+    return _KERNELS[name]
+
+
+def _sight_matrix(blocked, ox, oy, c, s, resolution, starts, ends, skip_end, max_length, step):
+    h, w = blocked.shape
+    out = np.zeros((starts.shape[0], ends.shape[0]), dtype=np.bool_)
+    for i in range(starts.shape[0]):
+        ax, ay = starts[i, 0], starts[i, 1]
+        for j in range(ends.shape[0]):
+            dx, dy = ends[j, 0] - ax, ends[j, 1] - ay
+            length = math.sqrt(dx * dx + dy * dy)
+            if length > max_length:
+                continue
+            usable = length - skip_end
+            clear = True
+            if usable > 0.0 or skip_end <= 0.0:  # (a skipped end that covers the whole segment: nothing to see)
+                frac = usable / length if length > 0.0 else 0.0
+                n = max(2, math.ceil(max(usable, 0.0) / step) + 1)
+                for k in range(n):
+                    t = frac * k / (n - 1)
+                    px, py = ax + t * dx - ox, ay + t * dy - oy
+                    u = math.floor((c * px + s * py) / resolution)
+                    v = math.floor((-s * px + c * py) / resolution)
+                    if v < 0 or v >= h or u < 0 or u >= w or blocked[int(v), int(u)]:
+                        clear = False
+                        break
+            out[i, j] = clear
+    return out
 
 
 class Grid:
@@ -66,3 +105,29 @@ class Grid:
         t = np.linspace(0.0, 1.0, n)
         samples = starts[:, None, :] + t[None, :, None] * (ends - starts)[:, None, :]  # [N, n, 2]
         return ~self.blocked_at(samples.reshape(-1, 2)).reshape(len(starts), n).any(axis=1)
+
+    def sight_matrix(self, starts, ends, skip_end=0.0, max_length=math.inf):
+        """bool [N, M]: the segment from ``starts[i]`` to ``ends[j]`` ([N, 2], [M, 2] [m]) crosses no
+        blocked cell (sampled as :meth:`line_of_sight`), its last ``skip_end`` [m] not looked at (the
+        chair a person sits on); a pair longer than ``max_length`` [m] is False."""
+        starts = np.ascontiguousarray(np.asarray(starts, dtype=float).reshape(-1, 2))
+        ends = np.ascontiguousarray(np.asarray(ends, dtype=float).reshape(-1, 2))
+        ox, oy, oyaw = self.origin
+        kernel = _kernel("_sight_matrix")
+        return kernel(self.blocked, ox, oy, math.cos(oyaw), math.sin(oyaw), self.resolution, starts, ends,
+                      float(skip_end), float(max_length), self.resolution / 2)
+
+    def with_obstacles(self, other):
+        """A grid like this one (its class, cells and origin) whose cells are blocked too where
+        ``other`` (a Grid of any size, resolution and origin) has a blocked cell at their centre;
+        cells off ``other`` are as they were."""
+        h, w = self.blocked.shape
+        ox, oy, oyaw = self.origin
+        cols, rows = np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5)
+        c, s = math.cos(oyaw), math.sin(oyaw)
+        x = ox + (c * cols - s * rows) * self.resolution
+        y = oy + (s * cols + c * rows) * self.resolution
+        r, q, inside = other.cells(np.column_stack([x.ravel(), y.ravel()]))
+        extra = (inside & other.blocked[r, q]).reshape(h, w)
+        data = np.where(extra, max(100, self.occupied), self.data)
+        return type(self)(data, self.origin, self.resolution, self.occupied)

@@ -27,9 +27,11 @@ goal). gotoUser is ACTIVE through its phases:
    1.1 m, and the laser confirms walkers), and that may be the user;
 2. ``search``: detect_users turns in 45 degree steps (its status ACTIVE, then either a
    ``/detected_user`` or ABORTED after a full turn). A full turn with nobody sends the robot to
-   another place in the room to search again (``search_spots`` places in all; see
-   places.FloorMap.lookout): close to where it turned, the Kinect does not see a seated person,
-   and furniture hides others. ``navigate`` and ``search`` then run again;
+   another place in the room to search again (``search_spots`` places in all): the place that
+   sees the most of the room's floor the turns so far did not (places.FloorMap.unseen_lookout:
+   close to where it turned the Kinect does not see a seated person, and walls, table tops and
+   chairs hide others; ``lookout_sight`` the Kinect's reach), else one ``lookout_reach`` from the
+   places searched (places.FloorMap.lookout). ``navigate`` and ``search`` then run again;
 3. ``approach``: approach_me_map goes to a polite pose near the user (ACTIVE, then SUCCEEDED or
    ABORTED), which ends gotoUser with the same state.
 
@@ -98,9 +100,11 @@ class Locator:
     returns what the node must do (a list of :class:`Command`); calls also return (ok, message)."""
 
     def __init__(self, rooms, hotspots, floor=None, timeouts=None, hotspot_clearance=0.15, sighting_margin=0.5,
-                 sighting_clearance=0.25, search_spots=1, lookout_reach=2.5, lookout_clearance=0.45, look_reach=2.0):
+                 sighting_clearance=0.25, search_spots=1, lookout_reach=2.5, lookout_clearance=0.45, look_reach=2.0,
+                 lookout_sight=(1.3, 4.0)):
         self.rooms, self.hotspots = rooms, hotspots
         self.floor = floor  # places.FloorMap, or None until the map comes
+        self.occluders = None  # florence_common.grid.Grid of what hides a seated person (the keep-out map), or None
         self.timeouts = timeouts or Timeouts()
         self.hotspot_clearance = hotspot_clearance  # [m] a hotspot must be this far from obstacles
         # [m] a person seen on the way counts this far inside the user's room and from the map's obstacles (the
@@ -109,6 +113,7 @@ class Locator:
         # gotoUser searches from up to this many places of the user's room (1: the seed's one full turn)
         self.search_spots = max(1, int(search_spots))
         self.lookout_reach, self.lookout_clearance = lookout_reach, lookout_clearance  # places.FloorMap.lookout
+        self.lookout_sight = tuple(lookout_sight)  # [m] near, far: where the Kinect sees a seated person
         self.look_reach = look_reach  # [m] from whom stood in the way (0: no look)
         self.user = None  # Pose of the user, None until some sensor says where
         self.user_source = ""
@@ -355,7 +360,9 @@ class Locator:
         place is chosen from where they were (about lookout_reach from it, seeing it, facing it), not
         from the places searched: the search that began where the robot stopped may have been too
         near a seated person for the Kinect (about 1.3 m; the tracker restarted for each step forgets
-        her), and in a small room a place far from that one can be as near her."""
+        her), and in a small room a place far from that one can be as near her. Otherwise the place
+        that sees most of what the turns so far did not (FloorMap.unseen_lookout, ``occluders`` hiding
+        too), else one lookout_reach from the places searched (FloorMap.lookout)."""
         if robot is not None:
             a.searched.append((robot.x, robot.y))
         where = " and ".join(f"({x:.2f}, {y:.2f})" for x, y in a.searched) or "here"
@@ -365,6 +372,10 @@ class Locator:
             if a.sighting is not None:
                 spot = self.floor.lookout(polygon, [a.sighting], self.lookout_reach, self.lookout_clearance,
                                           need_sight=True)
+            if spot is None:
+                near, far = self.lookout_sight
+                spot = self.floor.unseen_lookout(polygon, a.searched, near, far, self.lookout_clearance,
+                                                 occluders=self.occluders)
             if spot is None:
                 spot = self.floor.lookout(polygon, a.searched, self.lookout_reach, self.lookout_clearance)
         a.notes = [n for n in a.notes if not n.startswith(NOBODY)]  # the text names every place

@@ -22,6 +22,8 @@ ROS Subscribers:
     filtered_tracked_users (user_tracker_ni/TrackedUsers): people seen while gotoUser drives to the
         user's room (one there, within ~sighting_range, ends the drive and starts the search).
     map (nav_msgs/OccupancyGrid): the robot's map, to refuse hotspots and goals in walls or off it.
+    keepout_map (nav_msgs/OccupancyGrid, optional): the user-drawn keep-out map (table tops, chairs):
+        what hides a seated person from the Kinect when gotoUser picks its next place to search from.
     move_base/goal (move_base_msgs/MoveBaseActionGoal): every client's goals (getGoalPos*).
     move_base/waiting_for (geometry_msgs/PointStamped): whom move_base waits for in its way; should it
         give up gotoUser's drive, the robot looks at them from ~look_reach first.
@@ -53,6 +55,7 @@ from std_msgs.msg import Bool, String
 
 from detect_users.msg import DetectedUser
 from florence_common import pose as pose2d
+from florence_common.grid import Grid
 from florence_common.params import FRAME, Param, ParamTable
 from florence_common_ros import convert
 from florence_common_ros.actions import SentGoal, SimpleActionClient, server_ready_within, state_name
@@ -93,6 +96,11 @@ PARAMS = ParamTable(
           "Kinect does not see a person seated within about 1.1 m) ...", unit="m", gt=0),
     Param("lookout_clearance", float, 0.45, "... at least this far from walls and furniture of the map (no "
           "doorway), seeing the last place along a free line", unit="m", ge=0),
+    Param("lookout_near", float, 1.3, "gotoUser: the next place to search from is the one that sees most of the "
+          "room's floor the turns so far did not, between this distance (the Kinect misses a seated person "
+          "nearer) ...", unit="m", ge=0),
+    Param("lookout_far", float, 4.0, "... and this one, along lines free of the map's and the keep-out map's "
+          "obstacles; where no place sees 0.5 m^2 more, the ~lookout_reach rule", unit="m", gt=0),
     Param("look_reach", float, 2.0, "gotoUser: when move_base gives up the drive while somebody stands in its way "
           "(move_base/waiting_for), the robot looks at them from a place about this far that sees them, and "
           "searches from there, once (a still person close in front is unknown to the tracker; 0: give up at "
@@ -119,7 +127,7 @@ class FlorenceLocatorNode:
                             hotspot_clearance=p.hotspot_clearance, sighting_margin=p.sighting_margin,
                             sighting_clearance=p.sighting_clearance, search_spots=p.search_spots,
                             lookout_reach=p.lookout_reach, lookout_clearance=p.lookout_clearance,
-                            look_reach=p.look_reach)
+                            look_reach=p.look_reach, lookout_sight=(p.lookout_near, p.lookout_far))
         self.lock = threading.RLock()
         self.events = queue.Queue()  # actionlib's callbacks, handled by the tick thread
         self.last_save_error = ""
@@ -140,6 +148,7 @@ class FlorenceLocatorNode:
         rospy.Subscriber("approach_user/status", String, self._on_status, queue_size=20)
         rospy.Subscriber("detected_user", DetectedUser, self._on_detected, queue_size=5)
         rospy.Subscriber("map", OccupancyGrid, self._on_map, queue_size=1)
+        rospy.Subscriber("keepout_map", OccupancyGrid, self._on_keepout, queue_size=1)
         rospy.Subscriber("move_base/goal", MoveBaseActionGoal, self._on_any_goal, queue_size=5)
         rospy.Subscriber("filtered_tracked_users", TrackedUsers, self._on_users, queue_size=2)
         rospy.Subscriber("move_base/waiting_for", PointStamped, self._on_waiting_for, queue_size=2)
@@ -303,6 +312,18 @@ class FlorenceLocatorNode:
                 problem = self.core.check_place(spot, f"hotspot '{label}'")
                 if problem:
                     rospy.logwarn(LOG + "%s: gotoRoom('%s') will be refused until setHotspot moves it", problem, label)
+
+    def _on_keepout(self, msg):
+        info = msg.info
+        if info.width * info.height != len(msg.data) or info.resolution <= 0:
+            rospy.logwarn(LOG + "keep-out map of %dx%d cells with %d values ignored", info.width, info.height,
+                          len(msg.data))
+            return
+        data = np.asarray(msg.data, dtype=np.int16).reshape(info.height, info.width)
+        with self.lock:
+            self.core.occluders = Grid(data, convert.to_xyyaw(info.origin), info.resolution)
+        rospy.loginfo(LOG + "keep-out map %dx%d at %.3f m/cell: what it marks hides a seated person from the next "
+                      "place to search from", info.width, info.height, info.resolution)
 
     def _on_any_goal(self, msg):
         try:

@@ -281,6 +281,48 @@ class FloorMap(Grid):
         x, y = pts[int(np.argmax(score))]
         return Pose(float(x), float(y), math.atan2(last[1] - y, last[0] - x))
 
+    def unseen_lookout(self, polygon, searched, near=1.3, far=4.0, clearance=0.45, step=0.2, skip=0.35,
+                       min_gain=0.5, occluders=None, person_radius=0.2):
+        """Where to search a room again after full turns at ``searched`` [(x, y), ...] found nobody,
+        by what those turns could not see: the Pose inside ``polygon``, ``clearance`` [m] from every
+        obstacle of this map and of ``occluders``, from which the most floor of the room (its cells of
+        ``step`` [m] at least ``person_radius`` [m] from this map's obstacles: where a person can be,
+        on a chair too) lies between ``near`` and ``far`` [m] (where the Kinect sees a
+        seated person) along a free line, and did not from any searched spot; of equals, the nearest
+        the last searched spot; facing the middle of that floor. A line is free of this map's
+        obstacles and of ``occluders``' (a Grid: the keep-out map's table tops and chairs, which hide
+        a person seated behind them from a Kinect 0.5 m above the floor), its last ``skip`` [m] (the
+        person's own chair) not looked at. None when no place sees ``min_gain`` [m^2] of floor not
+        seen yet (then :meth:`lookout`)."""
+        poly = np.asarray(polygon, dtype=float)
+        spots = np.asarray(searched, dtype=float).reshape(-1, 2)
+        if not len(spots):
+            return None
+        (x0, y0), (x1, y1) = poly.min(axis=0), poly.max(axis=0)
+        xs, ys = np.meshgrid(np.arange(x0 + step / 2, x1, step), np.arange(y0 + step / 2, y1, step))
+        cells = np.column_stack([xs.ravel(), ys.ravel()])
+        cells = cells[contains_points(poly, cells) & (self.clearance_at(cells) >= person_radius)]
+        sight = self if occluders is None else self.with_obstacles(occluders)
+        places = cells[sight.clearance_at(cells) >= clearance]
+        if not len(cells) or not len(places):
+            return None
+
+        def seen_from(xy):
+            d = np.hypot(xy[:, None, 0] - cells[None, :, 0], xy[:, None, 1] - cells[None, :, 1])
+            return sight.sight_matrix(xy, cells, skip_end=skip, max_length=far) & (d >= near)
+
+        unseen = ~seen_from(spots).any(axis=0)
+        gain = seen_from(places)[:, unseen].sum(axis=1) * step * step  # [m^2]
+        best_gain = float(gain.max())
+        if best_gain < min_gain:
+            return None
+        ties = np.flatnonzero(gain >= best_gain - step * step / 2)  # of equals, the nearest the robot
+        k = int(ties[np.argmin(np.hypot(*(places[ties] - spots[-1]).T))])
+        x, y = places[k]
+        new = cells[unseen & seen_from(places[k:k + 1])[0]]
+        cx, cy = new.mean(axis=0)
+        return Pose(float(x), float(y), math.atan2(cy - y, cx - x))
+
 
 # --- hotspots -----------------------------------------------------------------------------------------------
 class Hotspots:
