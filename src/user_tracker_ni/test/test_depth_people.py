@@ -53,6 +53,24 @@ def test_a_sitting_person_s_facing_is_told_by_their_shins_in_front_of_the_torso(
     assert abs(angles.diff(people[0].facing, facing)) < math.radians(35), math.degrees(people[0].facing)
 
 
+def _chair(x, y, half=0.2):
+    """The four legs (2 cm, 0.45 m tall) of a chair centred at (x, y)."""
+    return [(x + dx, y + dy, 0.02, 0.0, 0.45, (120, 80, 40)) for dx in (-half, half) for dy in (-half, half)]
+
+
+@pytest.mark.parametrize("chair", [(3.0, 0.55), (3.0, -0.55), (2.5, 0.6), (3.1, 0.0)])
+@pytest.mark.parametrize("facing_deg", [180, 135, -135, 90])
+def test_a_chair_beside_a_seated_person_does_not_turn_her_facing(chair, facing_deg):
+    """The legs of a chair 0.4-0.6 m from her centre are at shin height too: without the patches that
+    reach her (facing_gap) they turned the facing 16-55 deg, or hid it (florence_sim: the dining chair
+    0.54 m from the day's seat turned it 25 deg). Her own legs tell it as they do alone."""
+    facing = math.radians(facing_deg)
+    alone, _ = run(scenes.sitting(2.5, 0.0, BLUE, facing=facing))
+    people, _ = run(scenes.sitting(2.5, 0.0, BLUE, facing=facing) + _chair(*chair))
+    assert len(people) == 1 and people[0].facing is not None
+    assert abs(angles.diff(people[0].facing, alone[0].facing)) < math.radians(2)
+    assert abs(angles.diff(people[0].facing, facing)) < math.radians(20), math.degrees(people[0].facing)
+
 def test_no_facing_without_the_shins_in_front_or_for_a_standing_person():
     (tucked,), _ = run(scenes.sitting(2.5, 0.0, BLUE, reach=0.0))  # legs under the torso (or hidden by a seat)
     assert tucked.posture == "sitting" and tucked.facing is None

@@ -75,8 +75,10 @@ KINECT = ParamTable(
     Param("kinect/legs_min", float, DepthParams.legs_min, "heights of a seated person's shins, the facing cue ...",
           unit="m", ge=0),
     Param("kinect/legs_max", float, DepthParams.legs_max, "... (to this height)", unit="m", gt=0),
-    Param("kinect/facing_reach", float, DepthParams.facing_reach, "... looked for this near the upper body's centre",
-          unit="m", gt=0),
+    Param("kinect/facing_reach", float, DepthParams.facing_reach,
+          "... looked for this near the upper body's centre ...", unit="m", gt=0),
+    Param("kinect/facing_gap", float, DepthParams.facing_gap, "... in patches (connected on a 5 cm grid) that come "
+          "this near it: not the legs of a chair or a table beside her", unit="m", gt=0),
     Param("kinect/facing_min_offset", float, DepthParams.facing_min_offset,
           "shins this far in front of the torso tell which way a seated person faces", unit="m", gt=0),
     Param("kinect/close_range", float, DepthParams.close_range,
