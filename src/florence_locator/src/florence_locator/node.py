@@ -306,6 +306,7 @@ class FlorenceLocatorNode:
             return
         data = np.asarray(msg.data, dtype=np.int16).reshape(info.height, info.width)
         floor = FloorMap(data, convert.to_xyyaw(info.origin), info.resolution)
+        floor.sight_matrix([floor.origin[:2]], [floor.origin[:2]])  # compiles its kernel now, not in a search
         with self.lock:
             self.core.floor = floor
             for label, spot in self.core.hotspots.items():
