@@ -37,6 +37,7 @@ class FakeBase:
         from geometry_msgs.msg import Twist
         from move_base_msgs.msg import MoveBaseActionResult
         from nav_msgs.msg import Odometry
+        from sensor_msgs.msg import LaserScan
         from tf2_ros import TransformBroadcaster
 
         self.rospy = rospy
@@ -45,6 +46,7 @@ class FakeBase:
         self.cmd, self.cmd_time = (0.0, 0.0), -1.0
         self.turned = 0.0  # [rad] total rotation
         self.odom_pub = rospy.Publisher(f"{NS}/odom", Odometry, queue_size=5)
+        self.scan_pub = rospy.Publisher(f"{NS}/scan", LaserScan, queue_size=1)  # nothing in sight
         self.tf = TransformBroadcaster()
         self.subs = [rospy.Subscriber(f"{NS}/cmd_vel_mux/input/{name}", Twist, self._on_cmd, queue_size=5)
                      for name in ("detect_users", "approach_me_map")]
@@ -64,10 +66,14 @@ class FakeBase:
 
     def _loop(self):
         from nav_msgs.msg import Odometry
+        from sensor_msgs.msg import LaserScan
 
         from florence_common_ros.convert import pose_msg, transform_stamped
 
         dt, acc = 0.02, 4.0
+        scan = LaserScan(angle_min=-2.0, angle_max=2.0, angle_increment=0.01, range_min=0.02, range_max=5.6)
+        scan.header.frame_id, scan.ranges = "base_link", [math.inf] * 401  # nothing in sight
+        tick = 0
         while self.running:
             with self.lock:
                 v_cmd, w_cmd = self.cmd if time.monotonic() - self.cmd_time < 0.5 else (0.0, 0.0)
@@ -86,6 +92,10 @@ class FakeBase:
             odom.pose.pose = pose_msg(x, y, yaw)
             odom.twist.twist.linear.x, odom.twist.twist.angular.z = v, w
             self.odom_pub.publish(odom)
+            tick += 1
+            if tick % 5 == 0:  # 10 Hz: approach_me_map's last half metre drives forward only with a fresh scan
+                scan.header.stamp = now
+                self.scan_pub.publish(scan)
             time.sleep(dt)
 
     def close(self):
@@ -333,7 +343,8 @@ def test_goto_user_drives_searches_and_approaches(system):
     goals = mock.goals[n_goals:]
     assert goals[0][:3] == pytest.approx(LIVING_HOTSPOT, abs=1e-4)  # first the hotspot of the user's room
     approach = goals[-1]
-    assert math.hypot(approach[0] - ALICE[0], approach[1] - ALICE[1]) == pytest.approx(0.5, abs=1e-3)
+    # move_base's goal: safe_distance (0.5 m) + approach_me_map's ~goal_standoff (0.1 m)
+    assert math.hypot(approach[0] - ALICE[0], approach[1] - ALICE[1]) == pytest.approx(0.6, abs=1e-3)
     # the search: the tracker restarted around every turn
     assert tracker.calls == ["Stop", "Start"] * 2  # looks at 0 (the tracks as they are), 45 and 90 degrees
     # the robot ends 0.5 m from the user, facing them (the last half metre closed on odometry)
@@ -374,7 +385,7 @@ def test_a_seated_users_front_out_of_reach_gives_way_to_the_robots_side(system):
     assert len(goals) == 2, goals  # no drive (the robot is in her room): her front, then the robot's side
     assert goals[0][1] > ALICE[1] + 0.2  # in front of her
     assert goals[1][1] < ALICE[1] and math.hypot(goals[1][0] - ALICE[0], goals[1][1] - ALICE[1]) \
-        == pytest.approx(0.5, abs=1e-3)
+        == pytest.approx(0.6, abs=1e-3)  # safe_distance + ~goal_standoff
     assert mock.outcomes[n_outcomes:] == ["preempted", "succeeded"]  # the trial in front cancelled at its deadline
 
 
@@ -547,4 +558,4 @@ def test_a_drive_given_up_for_somebody_in_the_way_looks_at_them_and_finds_the_us
     assert 6.8 < y < 10.0 and math.hypot(x - 1.38, y - 6.28) == pytest.approx(2.0, abs=0.3)
     assert abs(math.remainder(math.atan2(6.28 - y, 1.38 - x) - yaw, math.tau)) < 1e-3
     approach = goals[-1]
-    assert math.hypot(approach[0] - her[0], approach[1] - her[1]) == pytest.approx(0.5, abs=1e-3)
+    assert math.hypot(approach[0] - her[0], approach[1] - her[1]) == pytest.approx(0.6, abs=1e-3)  # + standoff

@@ -101,6 +101,9 @@ PARAMS = ParamTable(
     Param("min_clearance", float, _A.min_clearance, "a pose this near walls or furniture of the map is not "
           "used", unit="m", ge=0),
     Param("goal_timeout", float, 120.0, "longest move_base trial", unit="s", gt=0),
+    Param("goal_standoff", float, 0.1, "move_base's goal this much beyond safe_distance, the last half metre driving "
+          "the rest (move_base's people layer keeps plans 0.47 m from the user's tracked centre: a goal at 0.5 m "
+          "fell into that as her track moved); with ~align false, none", unit="m", ge=0, le=0.5),
     Param("reaim_distance", float, 0.1, "the tracked user this far from where the pose was put around her: the "
           "move_base goal moves with her (same place around her)", unit="m", gt=0),
     Param("reaim_period", float, 2.0, "at most one such move in this long", unit="s", ge=0),
@@ -330,22 +333,25 @@ class ApproachMeMapNode:
                 return "ABORTED", f"no robot pose: {why}"
             with self.lock:
                 user, grid, facing = self.user, self.grid, None if front_over else self.facing
-            candidates = rank(user, robot[:2], self.params, grid, exclude=tried, facing=facing)
-            if trial == 1:
-                self._publish_candidates(candidates)
-            goal = self._plannable(candidates, robot, beat, user)
-            for extra in (0.1, 0.2):
+            # move_base's goal ~goal_standoff beyond safe_distance (the last half metre drives the rest):
+            # its people layer keeps plans 0.3 m + the inscribed radius (0.47 m) from the tracked centre of the
+            # very user approached, and a goal at 0.5 m fell into that as her track moved a few cm (make demo:
+            # "the goal is in an obstacle", recoveries, 60 s waiting); then safe_distance, then a little farther
+            first = self.params.safe_distance + (p.goal_standoff if p.align else 0.0)
+            radii = [first] + [r for r in (self.params.safe_distance, self.params.safe_distance + 0.1,
+                                            self.params.safe_distance + 0.2) if abs(r - first) > 1e-6]
+            goal = None
+            for k, radius in enumerate(radii[:3]):
+                ring = dataclasses.replace(self.params, safe_distance=radius)
+                candidates = rank(user, robot[:2], ring, grid, exclude=tried, facing=facing)
+                if trial == 1 and k == 0:
+                    self._publish_candidates(candidates)
+                goal = self._plannable(candidates, robot, beat, user)
                 if goal is not None:
+                    if k:
+                        notes.append(f"trial {trial}: no pose {first:.2f} m from the user had a path, move_base "
+                                     f"sent {radius:.2f} m out")
                     break
-                # none at safe_distance with a path: move_base's people layer keeps plans 0.3 m + the inscribed
-                # radius (0.47 m) from the tracked centre of the very user approached, and that track is
-                # a few cm off (or doubled): a little farther out, the last half metre drives the rest
-                wider = dataclasses.replace(self.params, safe_distance=self.params.safe_distance + extra)
-                goal = self._plannable(rank(user, robot[:2], wider, grid, exclude=tried, facing=facing), robot, beat,
-                                       user)
-                if goal is not None:
-                    notes.append(f"trial {trial}: no pose {self.params.safe_distance:.2f} m from the user had a path, "
-                                 f"move_base sent {wider.safe_distance:.2f} m out")
             if goal is None:
                 notes.append(f"trial {trial}: no pose around ({user[0]:.2f}, {user[1]:.2f}) with a path"
                              + ("" if candidates else " (none free on the map)"))

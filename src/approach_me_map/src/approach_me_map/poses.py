@@ -69,7 +69,8 @@ class ApproachParams:
     step: float = math.radians(15.0)  # [rad] between candidate angles around the user
     preferred_offset: float = math.radians(30.0)  # [rad] front-left / front-right
     # [rad] beyond this offset: the far side, behind her (not wider: the tracker's facing of a seated person
-    # is 15-35 deg off; a pose 105 deg from it ended 152 deg from her true facing in test_locator_sim's corner)
+    # was 15-35 deg off, a dining chair's legs beside her counted as her shins; a pose 105 deg from it ended 152 deg
+    # from her true facing in test_locator_sim's corner. Without the chair's legs, 0-8 deg there: 29 Nov)
     side_limit: float = math.radians(90.0)
     min_clearance: float = 0.25  # [m] from a candidate's centre to walls and furniture on the map
     user_radius: float = 0.3  # [m] obstacles this near the user are the user's seat (sofa, chair, bed)
