@@ -1,14 +1,15 @@
 """approach_me_map_node: go to a polite pose near a detected user with move_base (seed 3.10,
 Table 13).
 
-On ``detected_user`` with command true, the node ranks poses at ``~safe_distance`` around the
-user (approach_me_map.poses: in front of the user, front-left / front-right before head-on, never
-behind her while another pose is free; the front is the way the tracker says she faces, the
-robot's side while it does not say), asks move_base's make_plan for a path to the best ones,
-sends the first with a path as a move_base goal, and after move_base stops turns to face the user
-and drives straight to ``~safe_distance`` (the last half metre, closed on odometry: move_base's
-0.25 m goal tolerance is too coarse). A failed trial moves on to another pose: at most ``~trials``
-(3, seed), then ABORTED. The user's position follows the tracker while the robot approaches.
+On ``detected_user`` with command true, the node ranks poses around the user at
+``~safe_distance`` + ``~goal_standoff`` (approach_me_map.poses: in front of the user, front-left /
+front-right before head-on, never behind her while another pose is free; the front is the way the
+tracker says she faces, the robot's side while it does not say), asks move_base's make_plan for a
+path to the best ones, sends the first with a path as a move_base goal, and after move_base stops
+turns to face the user and drives straight to ``~safe_distance`` (the last half metre, closed on
+odometry: move_base's 0.25 m goal tolerance is too coarse). A failed trial moves on to another
+pose: at most ``~trials`` (3, seed), then ABORTED. The user's position follows the tracker while
+the robot approaches.
 ``detected_user`` with command false stops the approach (its move_base goal is cancelled).
 
 ROS Parameters: PARAMS below (rendered in the README).
