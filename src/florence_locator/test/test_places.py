@@ -330,3 +330,22 @@ def test_unseen_lookouts_of_the_apartment_see_more_of_the_living_room_than_the_r
         old.append(seen([first, (a.x, a.y)]))
         new.append(seen([first, (b.x, b.y)]))
     assert np.mean(new) > np.mean(old) + 0.02, (np.mean(new), np.mean(old))
+
+
+def test_unseen_lookout_of_a_hall_is_coarser_not_slower():
+    """A 30 x 30 m hall at 0.1 m (no walls inside): the grid of the floor is coarsened to at most
+    MAX_LOOKOUT_CELLS cells (the place chosen is one of its cells), so the answer comes in about
+    the time of a room's, not in minutes."""
+    from florence_locator.places import MAX_LOOKOUT_CELLS
+
+    data = np.zeros((300, 300), dtype=int)
+    data[0, :] = data[-1, :] = data[:, 0] = data[:, -1] = 100
+    floor = FloorMap(data, (0.0, 0.0, 0.0), 0.1)
+    hall = [[0.0, 0.0], [30.0, 0.0], [30.0, 30.0], [0.0, 30.0]]
+    spot = floor.unseen_lookout(hall, [(5.0, 5.0)])
+    assert spot is not None and floor.problem(spot.x, spot.y, 0.45) is None
+    assert 1.3 <= math.hypot(spot.x - 5.0, spot.y - 5.0) <= 8.0 + 1e-9  # it sees floor the first turn did not
+    step = math.sqrt(900.0 / MAX_LOOKOUT_CELLS)  # 0.67 m
+    for v in (spot.x, spot.y):
+        k = (v - step / 2) / step
+        assert k == pytest.approx(round(k), abs=1e-6)
