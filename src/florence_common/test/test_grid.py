@@ -68,6 +68,9 @@ def test_sight_matrix_skips_the_end_and_leaves_out_long_pairs():
     # 0.6, 1.0 and 0.3 m long: beyond max_length a pair is not seen, however clear
     assert grid.sight_matrix(starts, ends, skip_end=0.15, max_length=0.8).tolist() == [[True, False, True]]
     assert grid.sight_matrix(starts, ends, skip_end=0.15, max_length=0.5).tolist() == [[False, False, True]]
+    # a point that is not finite sees nothing and is seen by nothing
+    assert grid.sight_matrix([[math.nan, 0.5], [-0.5, 0.5]], [[-0.2, 0.5], [math.inf, 0.5]]).tolist() == \
+        [[False, False], [True, False]]
 
 
 def test_with_obstacles_adds_another_grids_blocked_cells():

@@ -33,8 +33,8 @@ def _sight_matrix(blocked, ox, oy, c, s, resolution, starts, ends, skip_end, max
         for j in range(ends.shape[0]):
             dx, dy = ends[j, 0] - ax, ends[j, 1] - ay
             length = math.sqrt(dx * dx + dy * dy)
-            if length > max_length:
-                continue
+            if not math.isfinite(length) or length > max_length:
+                continue  # (not seen: a NaN point, or farther than max_length)
             usable = length - skip_end
             clear = True
             if usable > 0.0 or skip_end <= 0.0:  # (a skipped end that covers the whole segment: nothing to see)
