@@ -3,6 +3,7 @@ gotoUser's phases, timeouts, manualOverride, and the user's position (seed 3.8.1
 
 import math
 
+import numpy as np
 import pytest
 from florence_locator.activity import (
     ABORTED,
@@ -215,6 +216,40 @@ def test_nobody_found_searches_again_from_a_second_place_then_aborts(loc):
     state, text = loc.status()
     assert state == ABORTED and "found nobody in a full turn at (1.25, 3.05) and" in text
     assert text.count("(1.25, 3.05)") == 1, text
+
+
+def test_the_second_place_looks_past_the_keep_out_maps_tables_and_chairs(loc):
+    """With the keep-out map's occluders (the node's keepout_map) the second place is the one that
+    sees most of what they and the walls hid from the first turn (FloorMap.unseen_lookout): more
+    of it than the reach rule's place sees (bench seed 2's first turn at (1.39, 2.99))."""
+    from map_server.mapfile import load_map
+
+    from florence_common.grid import Grid
+
+    loc.floor, loc.search_spots = _floor(), 2
+    keep = load_map(map_file("apartment", "apartment_keepout.yaml"))
+    loc.occluders = Grid(keep.data, keep.origin, keep.resolution)
+    first = (1.39, 2.99)
+    commands = run_to_search(loc, robot=Pose(*first, 0.0))  # in the living room already
+    aid = commands[-1].activity
+    after = loc.phase_status("ABORTED", 30.0, Pose(*first, 0.0))  # nobody in a full turn
+    assert [c.name for c in after] == ["send_goal"] and after[0].activity == aid
+    x, y, _phi = after[0].args
+    room = loc.rooms.polygons["living_room"]
+    want = loc.floor.unseen_lookout(room, [first], *loc.lookout_sight, loc.lookout_clearance, occluders=loc.occluders)
+    assert (x, y) == pytest.approx((want.x, want.y))
+    old = loc.floor.lookout(room, [first], loc.lookout_reach, loc.lookout_clearance)
+    sight = loc.floor.with_obstacles(loc.occluders)
+    xs, ys = np.meshgrid(np.arange(0.05, 5.0, 0.1), np.arange(0.05, 5.5, 0.1))
+    cells = np.column_stack([xs.ravel(), ys.ravel()])
+    cells = cells[loc.floor.clearance_at(cells) >= 0.2]
+
+    def seen(spot):
+        d = np.hypot(cells[:, 0] - spot[0], cells[:, 1] - spot[1])
+        return sight.sight_matrix([spot], cells, skip_end=0.35, max_length=4.0)[0] & (d >= 1.3)
+
+    hidden = ~seen(first)
+    assert (seen((x, y)) & hidden).sum() > (seen((old.x, old.y)) & hidden).sum()
 
 
 def test_the_second_search_finds_the_user(loc):
