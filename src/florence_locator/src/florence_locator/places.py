@@ -314,14 +314,15 @@ class FloorMap(Grid):
             return sight.sight_matrix(xy, cells, skip_end=skip, max_length=far) & (d >= near)
 
         unseen = ~seen_from(spots).any(axis=0)
-        gain = seen_from(places)[:, unseen].sum(axis=1) * step * step  # [m^2]
+        newly = seen_from(places) & unseen  # [places, cells]
+        gain = newly.sum(axis=1) * step * step  # [m^2]
         best_gain = float(gain.max())
         if best_gain < min_gain:
             return None
         ties = np.flatnonzero(gain >= best_gain - step * step / 2)  # of equals, the nearest the robot
         k = int(ties[np.argmin(np.hypot(*(places[ties] - spots[-1]).T))])
         x, y = places[k]
-        new = cells[unseen & seen_from(places[k:k + 1])[0]]
+        new = cells[newly[k]]
         cx, cy = new.mean(axis=0)
         return Pose(float(x), float(y), math.atan2(cy - y, cx - x))
 

@@ -422,18 +422,17 @@ def give_way_cells(potential, costmap, robot_xy, people, keep_off, min_distance)
         speed = math.hypot(vx, vy)
         dx, dy = robot_xy[0] - px, robot_xy[1] - py
         norm = math.hypot(dx, dy)
-        if speed > 0.2:
+        walking = speed > 0.2
+        if walking:
             ux, uy = vx / speed, vy / speed
-            need = keep_off
+        elif norm < 1e-6:
+            continue
         else:
-            if norm < 1e-6:
-                continue
             ux, uy = dx / norm, dy / norm
         rx, ry = wx - px, wy - py
         along = rx * ux + ry * uy
         across = np.abs(-rx * uy + ry * ux)
-        if speed <= 0.2:
-            need = keep_off + np.maximum(0.0, along - norm) * GIVE_WAY_FAN
+        need = keep_off if walking else keep_off + np.maximum(0.0, along - norm) * GIVE_WAY_FAN
         good &= np.hypot(rx, ry) >= min_distance
         # off the person's way: beside it, or behind the person (not reachable past them anyway)
         good &= (across >= need) | (along < -min_distance)
