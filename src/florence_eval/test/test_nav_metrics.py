@@ -73,6 +73,33 @@ def test_people_near_counts_the_least_distance_while_driving():
     assert nav_metrics.people_near(track, late, 0.17)["person_distance_m"] is None
 
 
+def test_people_near_says_who_closed_in():
+    # the robot drives east at 0.2 m/s, then stands; Bob walks west toward it at 0.4 m/s throughout
+    t = np.arange(0.0, 3.0, 0.1)
+    v = np.where(t < 2.0, 0.2, 0.0)
+    x = np.minimum(0.2 * t, 0.4)
+    track = np.column_stack([t, x, np.zeros_like(t), np.zeros_like(t), v, np.zeros_like(t)])
+    tp = np.arange(0.0, 3.01, 0.25)
+    bob = np.column_stack([tp, 3.0 - 0.4 * tp, np.zeros_like(tp)])
+    near = nav_metrics.people_near(track, {"bob": bob}, 0.17)
+    assert near["person_nearest_driving_closing_mps"] == pytest.approx([0.2, 0.4], abs=1e-3)
+    # the robot driving west, away from him: its own speed toward him is negative
+    away = track.copy()
+    away[:, 3] = np.pi
+    assert nav_metrics.people_near(away, {"bob": bob}, 0.17)["person_nearest_driving_closing_mps"][0] \
+        == pytest.approx(-0.2, abs=1e-3)
+    # summarised: a leg under 0.5 m in which the robot closed in, and one in which only the person did
+    legs = [{"state": "SUCCEEDED", "ratio": 1.0, "collisions": 0, "body_clearance_m": 0.1,
+             "person_distance_driving_m": 0.45, "person_nearest_driving_closing_mps": closing,
+             **dict.fromkeys(("ratio_with_turns", "ratio_to_rest", "rest_s", "time_s", "start_s", "end_s",
+                              "end_error_m", "end_yaw_error_rad", "rest_error_m", "driving_s",
+                              "turning_in_place_s", "standing_s"), 1.0)}
+            for closing in ([0.2, 0.0], [0.0, 0.5])]
+    summary = nav_metrics.summarise(legs)
+    assert summary["legs_nearer_than_0_5_m_driving"] == 2
+    assert summary["legs_nearer_than_0_5_m_robot_closing"] == 1
+
+
 def test_leg_record_body_clearance_counts_people(world_and_body):
     scene, body = world_and_body
     track = np.array([[0.0, 1.2, 3.0, 0.0, 0.2, 0.0], [0.5, 1.3, 3.0, 0.0, 0.2, 0.0]])

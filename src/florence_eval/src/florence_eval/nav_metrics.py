@@ -27,6 +27,7 @@ ACC_TH = 1.0  # [rad/s^2] velocity_filter's max_angular_acc, the base's real lim
 XY_GOAL_TOLERANCE = 0.25  # [m] the seed's TrajectoryPlannerROS xy_goal_tolerance
 YAW_GOAL_TOLERANCE = 0.3  # [rad] the seed's yaw_goal_tolerance
 DRIVING_SPEED = 0.03  # [m/s] ground-truth speed from which the robot counts as driving (time_breakdown too)
+ROBOT_CLOSING = 0.05  # [m/s] the robot's own speed toward a person from which it counts as closing in
 PERSON_RADIUS = 0.20  # [m] a person's footprint when the people file does not say (florence_sim's RADIUS)
 # issue 21: with the walking residents and without them (then the time ratio's target is 1.25)
 TARGETS = {"success_rate": 0.99, "collisions": 0, "person_distance_driving_m": 0.5, "body_clearance_m": 0.05,
@@ -202,13 +203,15 @@ def people_near(track, people, robot_radius, radii=None, driving_speed=DRIVING_S
     person's records does not count for them); ``radii``: {person id: radius [m]} (default
     :data:`PERSON_RADIUS`). Returns a dict of the least centre distance [m] while the robot
     drives (ground-truth speed >= ``driving_speed`` [m/s]) with where it was ([robot x, y, person
-    x, y, person id]), the least at any time, and the least gap between the robot's body (a disc
-    of ``robot_radius``) and a person's footprint; each None
-    when no person was recorded over the track (or, for the first, the robot never drove)."""
+    x, y, person id]) and who closed in then (``person_nearest_driving_closing_mps``: [the robot's
+    own speed toward the person, the person's toward the robot] [m/s]; negative: moving apart), the
+    least at any time, and the least gap between the robot's body (a disc of ``robot_radius``) and
+    a person's footprint; each None when no person was recorded over the track (or, for the first
+    three, the robot never drove)."""
     track = np.asarray(track, dtype=float).reshape(-1, 6)
     radii = radii or {}
     out = {"person_distance_driving_m": None, "person_distance_m": None, "person_clearance_m": None,
-           "person_nearest_driving_at": None}
+           "person_nearest_driving_at": None, "person_nearest_driving_closing_mps": None}
     if len(track) == 0:
         return out
     t, driving = track[:, 0], np.abs(track[:, 4]) >= driving_speed
@@ -222,18 +225,28 @@ def people_near(track, people, robot_radius, radii=None, driving_speed=DRIVING_S
             continue
         px = np.interp(t[seen], rows[:, 0], rows[:, 1])
         py = np.interp(t[seen], rows[:, 0], rows[:, 2])
-        d = np.hypot(track[seen, 1] - px, track[seen, 2] - py)
+        robot = track[seen]
+        d = np.hypot(robot[:, 1] - px, robot[:, 2] - py)
         near_all.append(d.min())
         gap.append(d.min() - robot_radius - radii.get(pid, PERSON_RADIUS))
         if driving[seen].any():
             i = int(np.argmin(np.where(driving[seen], d, np.inf)))
-            near_driving.append((d[i], [round(float(track[seen][i, 1]), 3), round(float(track[seen][i, 2]), 3),
-                                        round(float(px[i]), 3), round(float(py[i]), 3), pid]))
+            ux, uy = (px[i] - robot[i, 1]) / max(d[i], 1e-9), (py[i] - robot[i, 2]) / max(d[i], 1e-9)
+            # the person's velocity from their records around that moment (0.5 s either side)
+            a, b = np.interp([robot[i, 0] - 0.5, robot[i, 0] + 0.5], rows[:, 0], np.arange(len(rows)))
+            a, b = int(np.floor(a)), int(np.ceil(b))
+            span = rows[b, 0] - rows[a, 0]
+            pvx, pvy = ((rows[b, 1:3] - rows[a, 1:3]) / span) if span > 0 else (0.0, 0.0)
+            robot_in = robot[i, 4] * (math.cos(robot[i, 3]) * ux + math.sin(robot[i, 3]) * uy)
+            near_driving.append((d[i], [round(float(robot[i, 1]), 3), round(float(robot[i, 2]), 3),
+                                        round(float(px[i]), 3), round(float(py[i]), 3), pid],
+                                 [round(float(robot_in), 3), round(float(-(pvx * ux + pvy * uy)), 3)]))
     if near_all:
         out["person_distance_m"], out["person_clearance_m"] = float(min(near_all)), float(min(gap))
     if near_driving:
-        d, where = min(near_driving, key=lambda item: item[0])
+        d, where, closing = min(near_driving, key=lambda item: item[0])
         out["person_distance_driving_m"], out["person_nearest_driving_at"] = float(d), where
+        out["person_nearest_driving_closing_mps"] = closing
     return out
 
 
@@ -300,6 +313,7 @@ def summarise(legs, targets=None):
         return float(np.median([leg[key] for leg in ok])) if ok else None
 
     ratios = np.array([leg["ratio"] for leg in ok])
+    close = [leg for leg in legs if (leg.get("person_distance_driving_m") or math.inf) < 0.5]
     out = {
         "pairs": len(legs), "succeeded": len(ok), "success_rate": len(ok) / max(1, len(legs)),
         "collisions": int(sum(leg["collisions"] for leg in legs)),
@@ -312,9 +326,12 @@ def summarise(legs, targets=None):
         # and at any time (a person may walk up to a robot that stands)
         "person_distance_driving_m": clearance_spread([leg.get("person_distance_driving_m") for leg in legs]),
         "person_distance_m": clearance_spread([leg.get("person_distance_m") for leg in legs]),
-        "legs_nearer_than_0_5_m_driving": sum(
-            1 for leg in legs if leg.get("person_distance_driving_m") is not None
-            and leg["person_distance_driving_m"] < 0.5),
+        "legs_nearer_than_0_5_m_driving": len(close),
+        # of those, the legs in which the robot's own motion then took it toward the person (more
+        # than ROBOT_CLOSING [m/s]); in the others the person came nearer to a robot braking,
+        # turning, or driving along or away
+        "legs_nearer_than_0_5_m_robot_closing": sum(
+            1 for leg in close if (leg.get("person_nearest_driving_closing_mps") or [math.inf])[0] > ROBOT_CLOSING),
         "time_ratio_median": float(np.median(ratios)) if len(ratios) else None,
         "time_ratio_p90": float(np.percentile(ratios, 90)) if len(ratios) else None,
         "time_ratio_max": float(ratios.max()) if len(ratios) else None,
