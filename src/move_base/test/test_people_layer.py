@@ -245,6 +245,39 @@ def test_braking_is_never_refused():
     assert approaches(points, np.tile(t, (2, 1)), person, 0.7).tolist() == [True, True]
 
 
+def test_a_walker_closing_in_is_given_way_to():
+    """walker_yield_speed: the robot, at rest or driving, only brakes and turns on the spot while a
+    walker would come within the distance; moving away from them is refused too unless they stay
+    out of it, and a person standing still is judged as before."""
+    rest = (0.0, 0.0, 0.0, 0.0, 0.5)
+    t = np.arange(20) * 0.1
+    away, _ = straight(-0.3)  # backing away west from a walker overtaking from the east
+    along, _ = straight(0.3, heading=math.pi / 2)  # driving north, across their way
+    turn = np.column_stack([np.zeros(20), np.zeros(20), np.linspace(0, 1, 20)])
+    points, times = np.stack([away, along, turn]), np.tile(t, (3, 1))
+    walker = np.array([[0.9, 0.0, -0.5, 0.0]])  # walking west at 0.5 m/s, toward the robot
+    assert approaches(points, times, walker, 0.6, brake=rest).tolist() == [False, False, False]
+    assert approaches(points, times, walker, 0.6, brake=rest, yield_speed=0.25).tolist() == [True, True, False]
+    # slower than yield_speed, or standing: moving away and along stay allowed
+    assert approaches(points, times, walker * [1, 1, 0.4, 1], 0.6, brake=rest, yield_speed=0.25).tolist() == \
+        [False, False, False]
+    # a walker passing 1 m away never comes within 0.6 m of any of them
+    passing = np.array([[0.9, 1.0, -0.5, 0.0]])
+    assert approaches(points[[0, 2]], times[[0, 2]], passing, 0.6, brake=rest, yield_speed=0.25).tolist() == \
+        [False, False]
+    # braking from 0.3 m/s while turning a little is braking
+    bx, by = braking_positions(t, (0.0, 0.0, 0.0), 0.3, 0.5)
+    th = 1.0 * t  # turning at 1 rad/s as it brakes: the arc of the distance braking covers
+    ds = np.diff(bx, prepend=0.0)
+    curving = np.column_stack([np.cumsum(ds * np.cos(th)), np.cumsum(ds * np.sin(th)), th])
+    assert 0.01 < np.hypot(curving[:, 0] - bx, curving[:, 1] - by).max() < 0.05
+    on = np.stack([curving, np.column_stack([bx + 0.1 * t, by, np.zeros(20)])])
+    brake = (0.0, 0.0, 0.0, 0.3, 0.5)
+    assert approaches(on, np.tile(t, (2, 1)), walker, 0.6, brake=brake, yield_speed=0.25).tolist() == [False, True]
+    # without brake (the final approach's paths) the rule is off
+    assert approaches(points, times, walker, 0.6, yield_speed=0.25).tolist() == [False, False, False]
+
+
 def test_still_points_count_as_people():
     toward, t = straight(0.5)
     legs = np.array([[1.0, 0.1], [1.0, -0.1]])

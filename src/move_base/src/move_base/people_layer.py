@@ -311,7 +311,13 @@ def approach_exemption(people, still, target, distance, min_distance):
     return out, still, index
 
 
-def approaches(points, times, people, min_distance, tolerance=0.01, brake=None, still=None, per_person=None):
+# [m] approaches(yield_speed): a trajectory this near the braking positions throughout is braking (a
+# robot at 0.3 m/s turning at 1 rad/s as it brakes at 0.5 m/s^2 strays 0.023 m from the straight line)
+YIELD_TOLERANCE = 0.05
+
+
+def approaches(points, times, people, min_distance, tolerance=0.01, brake=None, still=None, per_person=None,
+               yield_speed=0.0):
     """Which trajectories bring the robot's centre nearer than ``min_distance`` [m] to a person
     than braking would: trajectory k is refused when at some step i its position is within
     ``min_distance`` of where a person will be at ``times[k, i]`` [s] (walking on at their
@@ -319,6 +325,13 @@ def approaches(points, times, people, min_distance, tolerance=0.01, brake=None, 
     from ``brake`` = (x, y, yaw, speed [m/s], deceleration [m/s^2]) would be then (None: standing
     at the trajectory's first pose). Braking, turning on the spot and moving away from a person
     are never refused, so a robot a person walked up to can always leave.
+
+    ``yield_speed`` [m/s] > 0, with ``brake`` given: a person walking at least that fast is given
+    way to. A trajectory that is not braking (off the braking positions by more than
+    :data:`YIELD_TOLERANCE` at some step: a braking turn strays a little) is refused when at
+    some step it is within their distance of where they will be, whichever of the two closes
+    in: the robot stops and turns on the spot while a walker passes near or comes up to it, and
+    drives on only where they do not come that near (away from them, or once they have passed).
 
     ``points`` (K, T, >= 2) [m], ``times`` (K, T) [s] (np.inf past a trajectory's last step),
     ``people`` (P, 4) (x, y, vx, vy); ``per_person`` (P,) [m]: each person's distance instead of
@@ -342,13 +355,19 @@ def approaches(points, times, people, min_distance, tolerance=0.01, brake=None, 
         bx, by = points[:, :1, 0], points[:, :1, 1]
     else:
         bx, by = braking_positions(t, brake[:3], brake[3], brake[4])
+    off_braking = None
     for (px, py, vx, vy), keep in zip(people, per_person, strict=True):
         if keep <= 0.0:
             continue
         qx, qy = px + vx * t, py + vy * t  # (K, T) the person at each step's time
         d = np.hypot(points[..., 0] - qx, points[..., 1] - qy)
         d0 = np.hypot(bx - qx, by - qy)
-        out |= np.any(valid & (d < keep) & (d < d0 - tolerance), axis=1)
+        refused = d < d0 - tolerance
+        if brake is not None and yield_speed > 0.0 and math.hypot(vx, vy) >= yield_speed:
+            if off_braking is None:
+                off_braking = np.hypot(points[..., 0] - bx, points[..., 1] - by) > YIELD_TOLERANCE
+            refused = refused | off_braking
+        out |= np.any(valid & (d < keep) & refused, axis=1)
     if len(still):
         from scipy.spatial import cKDTree
 

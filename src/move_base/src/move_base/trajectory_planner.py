@@ -125,6 +125,10 @@ PARAMS = ParamTable(
           "to a tracked person (walking on at their velocity), or nearer than this less 0.1 m to a leg-height "
           "return the maps do not explain, than braking would; braking, turning on the spot and moving away "
           "stay allowed (0: off, ROS)", unit="m", ge=0.0),
+    Param("walker_yield_speed", float, 0.0, "Florence, with min_person_distance: a tracked person walking at least "
+          "this fast is given way to: while they would come within min_person_distance of a trajectory, "
+          "whichever of the two closes in, only braking and turning on the spot are allowed (the robot stops "
+          "while a walker passes near or comes up to it; 0: off)", unit="m/s", ge=0.0),
     Param("approach_person_distance", float, 0.0, "Florence: the person the robot is sent to on purpose "
           "(move_base's approach_target topic: approach_me_map's user) is kept this far instead of "
           "min_person_distance, and the leg-height returns round her are hers (0: min_person_distance for her "
@@ -817,7 +821,8 @@ class TrajectoryPlanner:
             index = np.arange(points.shape[1])[None, :]
             times = np.where(index < steps[:, None], index * np.asarray(dt, float).reshape(-1, 1), np.inf)
             near = approaches(points, times, self.people, p.min_person_distance, brake=self._brake,
-                              still=self.still_people, per_person=self.people_distance)
+                              still=self.still_people, per_person=self.people_distance,
+                              yield_speed=p.walker_yield_speed)
             # nor backing up toward a person behind (out of the sensors' view), the escape included
             # (its collision cost -1 would turn into a licence to back up)
             rear = np.vstack([self.people.reshape(-1, 4), self.remembered_people.reshape(-1, 4)])
