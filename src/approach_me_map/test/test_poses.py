@@ -10,10 +10,14 @@ from approach_me_map.poses import (
     AlignParams,
     ApproachParams,
     ObstacleGrid,
+    StrangerWait,
     behind,
+    in_the_way,
+    least_distance,
     nearest_track,
     rank,
     still_facings,
+    strangers,
     swept_near,
 )
 
@@ -78,6 +82,53 @@ def test_a_user_facing_a_wall_is_approached_from_her_side_not_from_behind():
     assert ranked
     assert abs(angles.diff(ranked[0].angle, math.pi / 2)) <= math.pi / 2 + 1e-9
     assert ranked[0].y > user[1] - 0.2  # beside her, not south of her
+
+
+def test_strangers_are_the_others_standing_still():
+    # the user (track 0, 0.2 m from where she was), a visitor standing, a walker, a track without a position
+    xy = np.array([[3.0, 2.4], [4.3, 4.9], [5.0, 3.0], [np.nan, np.nan]])
+    speeds = np.array([0.0, 0.05, 0.5, 0.0])
+    assert strangers(xy, speeds, (3.1, 2.2), 0.6, 0.25).tolist() == [[4.3, 4.9]]
+    # the user lost (nobody within the gate): everybody standing counts
+    assert strangers(xy, speeds, (0.0, 0.0), 0.6, 0.25).tolist() == [[3.0, 2.4], [4.3, 4.9]]
+    assert strangers(np.empty((0, 2)), np.empty(0), (0.0, 0.0), 0.6, 0.25).shape == (0, 2)
+
+
+def test_a_stranger_is_somebody_else_move_base_waited_for_long_enough():
+    user, visitor = (3.0, 2.4), (4.3, 4.9)
+    wait = StrangerWait(8.0, 0.6)
+    assert wait.update(10.0, user, None) is None
+    assert wait.update(10.0, user, (visitor, 9.9)) is None  # waiting since 10 s
+    assert wait.update(17.9, user, (visitor, 17.5)) is None
+    assert wait.update(18.0, user, (visitor, 17.9)) == visitor
+    # a pause in move_base's messages (it went on) starts the count again
+    assert wait.update(20.0, user, (visitor, 18.5)) is None
+    assert wait.update(20.5, user, (visitor, 20.4)) is None
+    assert wait.update(27.0, user, (visitor, 26.9)) is None
+    assert wait.update(28.5, user, (visitor, 28.4)) == visitor
+    # waiting for the user herself (within the gate) is no stranger
+    near_her = StrangerWait(8.0, 0.6)
+    assert near_her.update(0.0, user, ((3.3, 2.6), 0.0)) is None
+    assert near_her.update(9.0, user, ((3.3, 2.6), 9.0)) is None
+
+
+def test_in_the_way_is_near_what_is_left_of_the_way():
+    way = [(x, 0.0) for x in np.linspace(0.0, 4.0, 41)]
+    behind_it, ahead, aside = [0.5, 0.3], [3.0, 0.5], [3.0, 1.0]
+    people = np.array([behind_it, ahead, aside])
+    # the robot at x 2: the one it passed no longer counts, the one 0.5 m from the way ahead does
+    assert in_the_way(way, (2.0, 0.05), people, 0.6).tolist() == [ahead]
+    assert in_the_way(way, (0.0, 0.0), people, 0.6).tolist() == [behind_it, ahead]
+    assert in_the_way(way, (2.0, 0.0), people, 0.4).shape == (0, 2)
+    assert in_the_way([], (0.0, 0.0), people, 0.6).shape == (0, 2)
+    assert in_the_way(way, (0.0, 0.0), np.empty((0, 2)), 0.6).shape == (0, 2)
+
+
+def test_least_distance_of_a_path_to_people():
+    path = [(x, 0.0) for x in np.linspace(0.0, 4.0, 41)]
+    assert least_distance(path, [[2.05, 0.55], [9.0, 9.0]]) == pytest.approx(math.hypot(0.05, 0.55))
+    assert least_distance(path, np.empty((0, 2))) == math.inf
+    assert least_distance([], [[0.0, 0.0]]) == math.inf
 
 
 def test_a_path_round_the_user_sweeps_the_angle_it_goes_round_her_within_the_radius():

@@ -22,6 +22,8 @@ ROS Subscribers:
     map (nav_msgs/OccupancyGrid): walls and furniture, to rank the poses.
     scan (sensor_msgs/LaserScan): what is ahead of the robot in the last half metre.
     odom (nav_msgs/Odometry): the robot's speed at rest or not.
+    move_base/waiting_for (geometry_msgs/PointStamped): whom move_base waits for; somebody other
+        than the user for ~stranger_wait ends the trial, and the next ones keep clear of them.
 
 ROS Publishers:
     approach_user/status (std_msgs/String): ACTIVE (once a second while approaching), SUCCEEDED,
@@ -60,10 +62,14 @@ from approach_me_map.poses import (
     ApproachParams,
     ObstacleGrid,
     Stall,
+    StrangerWait,
     behind,
+    in_the_way,
+    least_distance,
     nearest_track,
     rank,
     still_facings,
+    strangers,
     swept_near,
 )
 from detect_users.msg import DetectedUser
@@ -91,7 +97,8 @@ PARAMS = ParamTable(
           "at the user from the way she faces that costs least", unit="deg", ge=0, le=60),
     Param("use_facing", bool, True, "the front is the way the tracker says the user faces (a seated user's "
           "shins); false, or while it does not say: the robot's side"),
-    Param("front_timeout", float, 45.0, "the trials ranked from her facing get this long in all; then the robot's "
+    Param("front_timeout", float, 45.0, "the trials ranked from her facing get this long in all (counted again "
+          "after a trial that somebody else stood in the way of); then the robot's "
           "side (a corner seat whose front is tight), with one more trial if none is left", unit="s", gt=0),
     Param("facing_max_speed", float, 0.25, "a facing is used only while the user's track is slower than this "
           "(a walker's facing is her way, and a still person's track jitters so close up)", unit="m/s", gt=0),
@@ -99,6 +106,13 @@ PARAMS = ParamTable(
           "min_person_distance) ...", unit="m", ge=0),
     Param("pass_sweep", float, 45.0, "... by more than this angle is taken only when no other pose has a path "
           "(even one behind her: move_base stalls on the way round her)", unit="deg", ge=0),
+    Param("stranger_distance", float, 0.6, "likewise a path that passes nearer than this (move_base's "
+          "min_person_distance) to another tracked person standing still: move_base would wait for them (one seen so "
+          "near what is left of the way ends the trial)",
+          unit="m", ge=0),
+    Param("stranger_wait", float, 8.0, "move_base waiting this long for somebody other than the user (its "
+          "waiting_for farther than ~track_gate from her) ends the trial; the next trials take them for a "
+          "stranger standing there", unit="s", gt=0),
     Param("min_clearance", float, _A.min_clearance, "a pose this near walls or furniture of the map is not "
           "used", unit="m", ge=0),
     Param("goal_timeout", float, 120.0, "longest move_base trial", unit="s", gt=0),
@@ -158,8 +172,11 @@ class ApproachMeMapNode:
         self.request = None  # (x, y) of the newest detection not yet taken
         self.user = None  # (x, y) [m, map] of the user being approached
         self.facing = None  # [rad, map] which way she faces (the tracker's latest word), None: unknown
-        self.tracks = (np.empty((0, 2)), np.empty(0))  # the latest tracked users: xy [m, map], facings [rad, map]
+        # the latest tracked users: xy [m, map], facings [rad, map], speeds [m/s] (NaN: not given)
+        self.tracks = (np.empty((0, 2)), np.empty(0), np.empty(0))
         self.scan = None  # (stamp [s], points [N, 2] in base_frame)
+        self.waiting_for = None  # ((x, y) [m, map], ROS time [s] received): move_base's last ~waiting_for
+        self.met = []  # (x, y) [m, map] of the strangers move_base waited for in this approach
         self.speed = (0.0, 0.0, -math.inf)  # v [m/s], w [rad/s], stamp [s]
         self.running = False
         self.cancel = threading.Event()
@@ -184,6 +201,7 @@ class ApproachMeMapNode:
         rospy.Subscriber("odom", Odometry, self._on_odom, queue_size=5)
         rospy.Subscriber("filtered_tracked_users", TrackedUsers, self._on_users, queue_size=5)
         rospy.Subscriber("detected_user", DetectedUser, self._on_detected, queue_size=5)
+        rospy.Subscriber("move_base/waiting_for", PointStamped, self._on_waiting_for, queue_size=5)
         self.worker = threading.Thread(target=self._run, name="approach_me_map", daemon=True)
         self.worker.start()
 
@@ -232,12 +250,13 @@ class ApproachMeMapNode:
         pts = np.array([[q.x, q.y, 0.0, 1.0] for q in msg.positions])
         xy = (m @ pts.T).T[:, :2]
         facings = np.full(len(xy), np.nan)
+        speeds = np.array([math.hypot(v.x, v.y) for v in msg.velocities] if len(msg.velocities) == len(xy)
+                          else np.full(len(xy), np.nan))
         if self.p.use_facing and len(msg.facings) == len(xy):
             facings = np.asarray(msg.facings, dtype=float) + pose2d.yaw_of_matrix(m[:3, :3])  # NaN stays NaN
-            speeds = [math.hypot(v.x, v.y) for v in msg.velocities] if len(msg.velocities) == len(xy) else []
-            facings = still_facings(facings, speeds or np.zeros(len(xy)), self.p.facing_max_speed)
+            facings = still_facings(facings, np.nan_to_num(speeds, nan=0.0), self.p.facing_max_speed)
         with self.lock:
-            self.tracks = (xy, facings)
+            self.tracks = (xy, facings, speeds)
             user = self.user if self.running else None
         if user is None:
             return
@@ -249,6 +268,15 @@ class ApproachMeMapNode:
                 self.user = (float(xy[k, 0]), float(xy[k, 1]))
                 if math.isfinite(facings[k]):
                     self.facing = float(angles.wrap(facings[k]))
+
+    def _on_waiting_for(self, msg):
+        m, why = lookup_matrix(self.tf_buffer, self.p.map_frame, msg.header.frame_id, rospy.Time(0), 0.0)
+        xy = None if m is None else (m @ np.array([msg.point.x, msg.point.y, msg.point.z, 1.0]))[:2]
+        if xy is None or not np.isfinite(xy).all():
+            rospy.logwarn_throttle(5.0, LOG + "move_base/waiting_for skipped: %s", why or "not finite")
+            return
+        with self.lock:
+            self.waiting_for = ((float(xy[0]), float(xy[1])), rospy.get_time())
 
     def _on_detected(self, msg):
         if not msg.command:
@@ -281,7 +309,7 @@ class ApproachMeMapNode:
             self.cancel.clear()
             with self.lock:
                 self.user, self.running = request, True
-                xy, facings = self.tracks
+                xy, facings, _ = self.tracks
                 k = nearest_track(request, xy, self.p.track_gate)
                 self.facing = float(angles.wrap(facings[k])) if k is not None and math.isfinite(facings[k]) else None
             outcome, why = "ABORTED", ""
@@ -325,6 +353,8 @@ class ApproachMeMapNode:
             return "ABORTED", "move_base is not running"
         tried, notes = [], []
         started, front_over = rospy.get_time(), False
+        with self.lock:
+            self.met = []
         trial, limit = 0, p.trials
         while trial < limit:
             trial += 1
@@ -347,7 +377,7 @@ class ApproachMeMapNode:
                 candidates = rank(user, robot[:2], ring, grid, exclude=tried, facing=facing)
                 if trial == 1 and k == 0:
                     self._publish_candidates(candidates)
-                goal = self._plannable(candidates, robot, beat, user)
+                goal, way = self._plannable(candidates, robot, beat, user)
                 if goal is not None:
                     if k:
                         notes.append(f"trial {trial}: no pose {first:.2f} m from the user had a path, move_base "
@@ -359,8 +389,13 @@ class ApproachMeMapNode:
                 break
             tried.append(goal.angle)
             deadline = math.inf if facing is None else started + p.front_timeout
+            with self.lock:
+                met = len(self.met)
             ok, why = self._drive(goal, user, beat, last=trial == limit, use_facing=facing is not None,
-                                  deadline=deadline)
+                                  deadline=deadline, way=way)
+            with self.lock:
+                if len(self.met) > met:  # somebody else in the way, not her front out of reach: a new budget
+                    started = rospy.get_time()
             front = "the robot's side" if facing is None else f"her facing {math.degrees(facing):.0f} deg"
             notes.append(f"trial {trial} at {math.degrees(goal.offset):+.0f} deg from {front}: {why}")
             if ok:
@@ -371,11 +406,22 @@ class ApproachMeMapNode:
                 front_over, limit = True, max(limit, trial + 1)
         return "ABORTED", "; ".join(notes) or "no trial"
 
+    def _others(self, user):
+        """Where the people other than the user stand (module poses' strangers): the tracked ones standing
+        still, and those move_base waited for or the robot saw in its way in this approach. (S, 2) [m, map]."""
+        with self.lock:
+            xy, _, speeds = self.tracks
+            met = list(self.met)
+        return np.vstack([strangers(xy, np.nan_to_num(speeds, nan=0.0), user, self.p.track_gate,
+                                    self.p.facing_max_speed), np.reshape(met, (-1, 2))])
+
     def _plannable(self, candidates, robot, beat, user):
-        """The first candidate with a plan that does not go round the user (module poses), else the one
-        whose plan goes least round her, else None."""
-        fallback, least, seen = None, math.inf, []
-        chosen = None
+        """(candidate, way): the first candidate with a plan that neither goes round the user nor passes
+        near somebody else standing (module poses) with its plan's path (N, 2) [m, map], else the one
+        whose plan passes nobody and goes least round her with None, else (None, None)."""
+        others = self._others(user)
+        fallback, least, seen = None, (True, math.inf), []
+        chosen = way = None
         for c in candidates[:self.p.plan_checks]:
             self._check()
             self._heartbeat(beat)
@@ -392,22 +438,28 @@ class ApproachMeMapNode:
                 continue
             path = [(q.pose.position.x, q.pose.position.y) for q in plan.poses]
             sweep = swept_near(path, user, self.p.pass_distance)
-            if sweep <= math.radians(self.p.pass_sweep):
-                chosen = c
+            near = least_distance(path, others)
+            past = near < self.p.stranger_distance
+            if sweep <= math.radians(self.p.pass_sweep) and not past:
+                chosen, way = c, np.asarray(path)
                 break
-            seen.append(f"{math.degrees(c.offset):+.0f} deg: the way goes {math.degrees(sweep):.0f} deg round her")
-            if sweep < least:
-                fallback, least = c, sweep
+            seen.append(f"{math.degrees(c.offset):+.0f} deg: the way "
+                        + (f"passes {near:.2f} m from somebody else" if past else
+                           f"goes {math.degrees(sweep):.0f} deg round her"))
+            if (past, sweep) < least:
+                fallback, least = c, (past, sweep)
         chosen = chosen or fallback
         if seen:
             rospy.loginfo(LOG + "poses asked of make_plan before the one taken (%s): %s",
                           "none" if chosen is None else f"{math.degrees(chosen.offset):+.0f} deg", "; ".join(seen))
-        return chosen
+        return chosen, way
 
-    def _drive(self, goal, user, beat, last, use_facing=True, deadline=math.inf):
+    def _drive(self, goal, user, beat, last, use_facing=True, deadline=math.inf, way=None):
         """One trial: move_base to ``goal``, then the last half metre (``last``: the last trial). (ok, what
         happened). ``use_facing``: the trial ranked from her facing (else from the robot's side, and
-        ending at her back is no failure); past ``deadline`` [s] (ROS time) it ends."""
+        ending at her back is no failure); past ``deadline`` [s] (ROS time) it ends; ``way``: make_plan's
+        path (N, 2) [m, map], clear of everybody else when chosen: somebody seen standing near what is
+        left of it ends the trial."""
         p = self.p
         done = threading.Event()
         aim, target = user, (goal.x, goal.y)  # the user's place the pose was put around, and the pose
@@ -421,7 +473,8 @@ class ApproachMeMapNode:
         sent_goal = [None]
         started = sent = send()
         stall, stalled, moves = Stall(p.stall_radius, p.stall_timeout, linger=p.stall_linger), "", 0
-        announced = -math.inf
+        announced, waited = -math.inf, StrangerWait(p.stranger_wait, p.track_gate)
+        ended = None  # why the trial ended before move_base did
         try:
             while not done.wait(0.1) and not sent_goal[0].poll():
                 self._check()
@@ -432,8 +485,8 @@ class ApproachMeMapNode:
                     announced = rospy.get_time()
                     self._announce(now_user)
                 if math.hypot(now_user[0] - user[0], now_user[1] - user[1]) > p.retarget_distance:
-                    self.client.cancel_goal()
-                    return False, f"the user moved to ({now_user[0]:.2f}, {now_user[1]:.2f})"
+                    ended = f"the user moved to ({now_user[0]:.2f}, {now_user[1]:.2f})"
+                    break
                 shift = (now_user[0] - aim[0], now_user[1] - aim[1])
                 if math.hypot(*shift) > p.reaim_distance and rospy.get_time() - sent > p.reaim_period:
                     # the tracker places her better as the robot comes closer (amcl's error, a far
@@ -444,10 +497,26 @@ class ApproachMeMapNode:
                                   math.hypot(*shift), *target)
                 now = rospy.get_time()
                 if now - started > p.goal_timeout or now > deadline:
-                    self.client.cancel_goal()
-                    return False, (f"move_base took longer than {p.goal_timeout:.0f} s" if now <= deadline else
-                                   f"her front not reached within ~front_timeout ({p.front_timeout:.0f} s)")
+                    ended = (f"move_base took longer than {p.goal_timeout:.0f} s" if now <= deadline else
+                             f"her front not reached within ~front_timeout ({p.front_timeout:.0f} s)")
+                    break
+                with self.lock:
+                    waiting_for = self.waiting_for
+                stranger = waited.update(now, now_user, waiting_for)
+                if stranger is not None:
+                    with self.lock:
+                        self.met.append(stranger)
+                    ended = (f"move_base waited {p.stranger_wait:.0f} s for somebody at ({stranger[0]:.2f}, "
+                             f"{stranger[1]:.2f}), not the user")
+                    break
                 robot, _ = self._robot(p.map_frame)
+                blocking = in_the_way(way, robot[:2], self._others(now_user), p.stranger_distance) \
+                    if way is not None and robot is not None else ()
+                if len(blocking):
+                    with self.lock:
+                        self.met.extend(tuple(map(float, b)) for b in blocking)
+                    ended = f"somebody stands in the way at ({blocking[0][0]:.2f}, {blocking[0][1]:.2f})"
+                    break
                 if robot is not None and stall.update(rospy.get_time(), robot, target):
                     self.client.cancel_goal()
                     stalled = (f"move_base's robot {stall.why}, "
@@ -457,6 +526,9 @@ class ApproachMeMapNode:
         except Cancelled:
             self.client.cancel_goal()
             raise
+        if ended:
+            self.client.cancel_goal()
+            return False, ended
         state = self.client.get_state()
         text = self.client.get_goal_status_text()
         robot, _ = self._robot(p.map_frame)

@@ -34,7 +34,15 @@ behind her, and then the one whose path goes least round her: move_base's local 
 0.6 m from a person (min_person_distance) and cannot follow a plan that goes round her nearer,
 so the robot stalls on the way, at her back. (Taken before the poses behind her, gotoUser to
 test_locator_sim's seated user, in the living room's corner between the coffee table and a
-chair, took 106 and 132 s and once ABORTED after 200 s; with the pose behind her, 14 s.)
+chair, took 106 and 132 s and once ABORTED after 200 s; with the pose behind her, 14 s.) So is a
+path that passes nearer than ``stranger_distance`` to somebody else standing still
+(:func:`strangers`, :func:`least_distance`), for the same reason: the robot would wait for them
+until the trial's time ran out. Of such fallbacks, one past nobody comes first. (make demo: her
+front, round the dining table, passed 0.55 m from the visitor standing by it; the robot waited
+there 45 s, then went to her back.) Somebody the tracker does not show when the poses are ranked
+(out of the Kinect's view) counts once move_base has waited ``stranger_wait`` for them
+(:class:`StrangerWait`), or once the robot sees them standing that near what is left of its way
+(:func:`in_the_way`): that trial ends, and the next ones keep clear of where they stand.
 
 **A stalled trial** (:class:`Stall`). Near a seated person's body move_base may stop short of the
 pose and never finish: its local planner refuses to turn the footprint's nose into her costs
@@ -175,6 +183,59 @@ def swept_near(path_xy, user, radius):
     bearing = np.unwrap(np.arctan2(xy[:, 1] - user[1], xy[:, 0] - user[0]))
     near = np.hypot(xy[:, 0] - user[0], xy[:, 1] - user[1]) < radius
     return float(np.ptp(bearing[near])) if near.any() else 0.0
+
+
+def strangers(xy, speeds, user, gate, max_speed):
+    """The tracked people (``xy`` (N, 2) [m], ``speeds`` (N,) [m/s]) other than the user (the track
+    nearest ``user`` (x, y) within ``gate`` [m], :func:`nearest_track`) who stand still (slower than
+    ``max_speed``; a walker will have moved on): (S, 2) [m]."""
+    xy = np.asarray(xy, dtype=float).reshape(-1, 2)
+    speeds = np.asarray(speeds, dtype=float).reshape(-1)
+    keep = np.isfinite(xy).all(axis=1) & (speeds < max_speed)
+    k = nearest_track(user, xy, gate)
+    if k is not None:
+        keep[k] = False
+    return xy[keep]
+
+
+def least_distance(path_xy, points):
+    """The least distance [m] between a path (N, 2) [m] and ``points`` (S, 2) [m] (inf: none)."""
+    xy = np.asarray(path_xy, dtype=float).reshape(-1, 2)
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    if not len(xy) or not len(points):
+        return math.inf
+    return float(np.min(np.hypot(xy[:, None, 0] - points[None, :, 0], xy[:, None, 1] - points[None, :, 1])))
+
+
+class StrangerWait:
+    """Whether move_base has waited ``wait`` [s] for somebody other than the user (module
+    docstring): its waiting_for ((x, y) [m], time received [s]), sent at most twice a second while
+    it waits, counts while at most ``fresh`` [s] old and farther than ``gate`` [m] from the user."""
+
+    def __init__(self, wait, gate, fresh=1.0):
+        self.wait, self.gate, self.fresh = float(wait), float(gate), float(fresh)
+        self.since = None  # [s] since when move_base waits for somebody else
+
+    def update(self, now, user, waiting_for):
+        """(x, y) [m] of the stranger once waited for ``wait``, else None; ``user`` (x, y) [m]."""
+        if waiting_for is None or now - waiting_for[1] > self.fresh or \
+                math.hypot(waiting_for[0][0] - user[0], waiting_for[0][1] - user[1]) <= self.gate:
+            self.since = None
+            return None
+        self.since = now if self.since is None else self.since
+        return tuple(waiting_for[0]) if now - self.since >= self.wait else None
+
+
+def in_the_way(path_xy, robot, points, radius):
+    """The ``points`` (S, 2) [m] nearer than ``radius`` [m] to what is left of a path (N, 2) [m] for a
+    robot at ``robot`` (x, y) [m]: from the path's point nearest it on. Returns (S', 2)."""
+    xy = np.asarray(path_xy, dtype=float).reshape(-1, 2)
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    if not len(xy) or not len(points):
+        return points[:0]
+    rest = xy[int(np.argmin(np.hypot(xy[:, 0] - robot[0], xy[:, 1] - robot[1]))):]
+    d = np.hypot(rest[:, None, 0] - points[None, :, 0], rest[:, None, 1] - points[None, :, 1]).min(axis=0)
+    return points[d < radius]
 
 
 def behind(user, robot, facing, limit):
