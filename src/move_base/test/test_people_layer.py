@@ -245,6 +245,38 @@ def test_braking_is_never_refused():
     assert approaches(points, np.tile(t, (2, 1)), person, 0.7).tolist() == [True, True]
 
 
+def test_curving_past_a_person_is_no_way_to_close_in():
+    """A robot driving toward a person's legs may brake (turning as it brakes, too) but not curve
+    on past them nearer than it stands now, though each step stays about as far as braking straight
+    on would be (bench/nav.py seed 3: 0.53 m to 0.42 m between centres so)."""
+    t = np.arange(16) * 0.1
+    brake = (0.0, 0.0, math.pi, 0.26, 0.5)  # driving west at 0.26 m/s
+    legs = np.array([[-0.3, -0.32]])  # 0.44 m away to the south-west
+    bx, by = braking_positions(t, brake[:3], brake[3], brake[4])
+    th = math.pi - 1.2 * t  # curving north, away from them, at full speed
+    cx = np.concatenate([[0.0], np.cumsum(0.026 * np.cos(th[:-1]))])
+    cy = np.concatenate([[0.0], np.cumsum(0.026 * np.sin(th[:-1]))])
+    curve = np.column_stack([cx, cy, th])
+    d = np.hypot(cx - legs[0, 0], cy - legs[0, 1])
+    assert np.min(d - np.hypot(bx - legs[0, 0], by - legs[0, 1])) > -0.01  # as far as braking, within tolerance
+    assert d.min() < 0.42  # but nearer than now
+    ds = np.diff(bx, prepend=0.0)  # braking while turning north at 1.2 rad/s
+    braking_turn = np.column_stack([np.cumsum(ds * np.cos(th)), np.cumsum(ds * np.sin(th)), th])
+    braking = np.column_stack([bx, by, np.full(16, math.pi)])
+    points, times = np.stack([braking, braking_turn, curve]), np.tile(t, (3, 1))
+    nobody = np.zeros((0, 4))
+    assert approaches(points, times, nobody, 0.6, brake=brake, still=legs).tolist() == [False, False, True]
+    # a tracked person standing there: the same
+    person = np.array([[-0.3, -0.32, 0.0, 0.0]])
+    assert approaches(points, times, person, 0.5, brake=brake).tolist() == [False, False, True]
+    # from rest: driving north, away from them, is allowed, south-west toward them is not
+    rest = (0.0, 0.0, math.pi, 0.0, 0.5)
+    north = np.column_stack([np.zeros(16), 0.2 * t, np.full(16, math.pi / 2)])
+    toward = np.column_stack([-0.1 * t, -0.1 * t, np.full(16, -3 * math.pi / 4)])
+    assert approaches(np.stack([north, toward]), np.tile(t, (2, 1)), nobody, 0.6, brake=rest,
+                      still=legs).tolist() == [False, True]
+
+
 def test_a_walker_closing_in_is_given_way_to():
     """walker_yield_speed: the robot, at rest or driving, only brakes and turns on the spot while a
     walker would come within the distance; moving away from them is refused too unless they stay

@@ -311,9 +311,9 @@ def approach_exemption(people, still, target, distance, min_distance):
     return out, still, index
 
 
-# [m] approaches(yield_speed): a trajectory this near the braking positions throughout is braking (a
+# [m] approaches(brake=...): a trajectory this near the braking positions throughout is braking (a
 # robot at 0.3 m/s turning at 1 rad/s as it brakes at 0.5 m/s^2 strays 0.023 m from the straight line)
-YIELD_TOLERANCE = 0.05
+BRAKING_TOLERANCE = 0.05
 
 
 def approaches(points, times, people, min_distance, tolerance=0.01, brake=None, still=None, per_person=None,
@@ -326,10 +326,18 @@ def approaches(points, times, people, min_distance, tolerance=0.01, brake=None, 
     at the trajectory's first pose). Braking, turning on the spot and moving away from a person
     are never refused, so a robot a person walked up to can always leave.
 
+    With ``brake`` given, a trajectory that is not braking (off the braking positions by more
+    than :data:`BRAKING_TOLERANCE` at some step: a braking turn strays a little) is also refused
+    when within the distance it comes nearer to the person than a robot standing at its first
+    pose would be. Braking alone is no licence: a robot driving toward a person could otherwise
+    curve past them, each cycle a little less near than braking straight on would bring it, and
+    close in all the same (bench/nav.py seed 3, 29 Nov: an arc past Alice standing at her
+    waypoint from 0.53 m to 0.42 m between centres, 0.26 m from her legs).
+
     ``yield_speed`` [m/s] > 0, with ``brake`` given: a person walking at least that fast is given
     way to. A trajectory that is not braking (off the braking positions by more than
-    :data:`YIELD_TOLERANCE` at some step: a braking turn strays a little) is refused when at
-    some step it is within their distance of where they will be, whichever of the two closes
+    :data:`BRAKING_TOLERANCE` at some step) is refused when at some step it is within their
+    distance of where they will be, whichever of the two closes
     in: the robot stops and turns on the spot while a walker passes near or comes up to it, and
     drives on only where they do not come that near (away from them, or once they have passed).
 
@@ -351,22 +359,22 @@ def approaches(points, times, people, min_distance, tolerance=0.01, brake=None, 
     t = np.asarray(times, dtype=float)
     valid = np.isfinite(t)
     t = np.where(valid, t, 0.0)
+    sx, sy = points[:, :1, 0], points[:, :1, 1]  # standing at the first pose
     if brake is None:
-        bx, by = points[:, :1, 0], points[:, :1, 1]
+        bx, by, off_braking = sx, sy, None
     else:
         bx, by = braking_positions(t, brake[:3], brake[3], brake[4])
-    off_braking = None
+        off_braking = np.hypot(points[..., 0] - bx, points[..., 1] - by) > BRAKING_TOLERANCE
     for (px, py, vx, vy), keep in zip(people, per_person, strict=True):
         if keep <= 0.0:
             continue
         qx, qy = px + vx * t, py + vy * t  # (K, T) the person at each step's time
         d = np.hypot(points[..., 0] - qx, points[..., 1] - qy)
-        d0 = np.hypot(bx - qx, by - qy)
-        refused = d < d0 - tolerance
-        if brake is not None and yield_speed > 0.0 and math.hypot(vx, vy) >= yield_speed:
-            if off_braking is None:
-                off_braking = np.hypot(points[..., 0] - bx, points[..., 1] - by) > YIELD_TOLERANCE
-            refused = refused | off_braking
+        refused = d < np.hypot(bx - qx, by - qy) - tolerance
+        if off_braking is not None:
+            refused |= off_braking & (d < np.hypot(sx - qx, sy - qy) - tolerance)
+            if yield_speed > 0.0 and math.hypot(vx, vy) >= yield_speed:
+                refused |= off_braking
         out |= np.any(valid & (d < keep) & refused, axis=1)
     if len(still):
         from scipy.spatial import cKDTree
@@ -376,8 +384,11 @@ def approaches(points, times, people, min_distance, tolerance=0.01, brake=None, 
         near = min_distance - STILL_MARGIN
         d = tree.query(points[..., :2].reshape(-1, 2), distance_upper_bound=near)[0].reshape(shape)
         base = np.column_stack([np.broadcast_to(bx, shape).ravel(), np.broadcast_to(by, shape).ravel()])
-        d0 = tree.query(base)[0].reshape(shape)
-        out |= np.any(valid & (d < near) & (d < d0 - tolerance), axis=1)
+        refused = d < tree.query(base)[0].reshape(shape) - tolerance
+        if off_braking is not None:
+            standing = tree.query(np.column_stack([sx[:, 0], sy[:, 0]]))[0].reshape(-1, 1)
+            refused |= off_braking & (d < standing - tolerance)
+        out |= np.any(valid & (d < near) & refused, axis=1)
     return out
 
 

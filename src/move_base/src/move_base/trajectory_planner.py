@@ -123,8 +123,8 @@ PARAMS = ParamTable(
           "robot to and fro)", unit="rad", ge=0.0),
     Param("min_person_distance", float, 0.0, "Florence: no trajectory brings the robot's centre nearer than this "
           "to a tracked person (walking on at their velocity), or nearer than this less 0.1 m to a leg-height "
-          "return the maps do not explain, than braking would; braking, turning on the spot and moving away "
-          "stay allowed (0: off, ROS)", unit="m", ge=0.0),
+          "return the maps do not explain, than braking would, nor (unless it is braking) than standing would; "
+          "braking, turning on the spot and moving away stay allowed (0: off, ROS)", unit="m", ge=0.0),
     Param("walker_yield_speed", float, 0.0, "Florence, with min_person_distance: a tracked person walking at least "
           "this fast is given way to: while they would come within min_person_distance of a trajectory, "
           "whichever of the two closes in, only braking and turning on the spot are allowed (the robot stops "
