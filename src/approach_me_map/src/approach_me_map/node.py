@@ -176,7 +176,7 @@ class ApproachMeMapNode:
         self.tracks = (np.empty((0, 2)), np.empty(0), np.empty(0))
         self.scan = None  # (stamp [s], points [N, 2] in base_frame)
         self.waiting_for = None  # ((x, y) [m, map], ROS time [s] received): move_base's last ~waiting_for
-        self.met = []  # (x, y) [m, map] of the strangers move_base waited for in this approach
+        self.met = []  # (x, y) [m, map] of the strangers move_base waited for or the robot saw in its way
         self.speed = (0.0, 0.0, -math.inf)  # v [m/s], w [rad/s], stamp [s]
         self.running = False
         self.cancel = threading.Event()

@@ -198,13 +198,18 @@ def strangers(xy, speeds, user, gate, max_speed):
     return xy[keep]
 
 
+def _from_path(xy, points):
+    """Each point's least distance [m] to the path ``xy`` (N >= 1, 2) [m]: (S,)."""
+    return np.hypot(xy[:, None, 0] - points[None, :, 0], xy[:, None, 1] - points[None, :, 1]).min(axis=0)
+
+
 def least_distance(path_xy, points):
     """The least distance [m] between a path (N, 2) [m] and ``points`` (S, 2) [m] (inf: none)."""
     xy = np.asarray(path_xy, dtype=float).reshape(-1, 2)
     points = np.asarray(points, dtype=float).reshape(-1, 2)
     if not len(xy) or not len(points):
         return math.inf
-    return float(np.min(np.hypot(xy[:, None, 0] - points[None, :, 0], xy[:, None, 1] - points[None, :, 1])))
+    return float(_from_path(xy, points).min())
 
 
 class StrangerWait:
@@ -234,8 +239,7 @@ def in_the_way(path_xy, robot, points, radius):
     if not len(xy) or not len(points):
         return points[:0]
     rest = xy[int(np.argmin(np.hypot(xy[:, 0] - robot[0], xy[:, 1] - robot[1]))):]
-    d = np.hypot(rest[:, None, 0] - points[None, :, 0], rest[:, None, 1] - points[None, :, 1]).min(axis=0)
-    return points[d < radius]
+    return points[_from_path(rest, points) < radius]
 
 
 def behind(user, robot, facing, limit):

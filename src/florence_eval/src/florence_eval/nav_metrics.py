@@ -233,10 +233,10 @@ def people_near(track, people, robot_radius, radii=None, driving_speed=DRIVING_S
             i = int(np.argmin(np.where(driving[seen], d, np.inf)))
             ux, uy = (px[i] - robot[i, 1]) / max(d[i], 1e-9), (py[i] - robot[i, 2]) / max(d[i], 1e-9)
             # the person's velocity from their records around that moment (0.5 s either side)
-            a, b = np.interp([robot[i, 0] - 0.5, robot[i, 0] + 0.5], rows[:, 0], np.arange(len(rows)))
-            a, b = int(np.floor(a)), int(np.ceil(b))
-            span = rows[b, 0] - rows[a, 0]
-            pvx, pvy = ((rows[b, 1:3] - rows[a, 1:3]) / span) if span > 0 else (0.0, 0.0)
+            tw = np.clip([robot[i, 0] - 0.5, robot[i, 0] + 0.5], rows[0, 0], rows[-1, 0])
+            span = tw[1] - tw[0]
+            pvx, pvy = ((np.diff(np.interp(tw, rows[:, 0], rows[:, 1]))[0] / span,
+                         np.diff(np.interp(tw, rows[:, 0], rows[:, 2]))[0] / span) if span > 0 else (0.0, 0.0))
             robot_in = robot[i, 4] * (math.cos(robot[i, 3]) * ux + math.sin(robot[i, 3]) * uy)
             near_driving.append((d[i], [round(float(robot[i, 1]), 3), round(float(robot[i, 2]), 3),
                                         round(float(px[i]), 3), round(float(py[i]), 3), pid],

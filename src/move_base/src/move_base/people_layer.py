@@ -337,9 +337,9 @@ def approaches(points, times, people, min_distance, tolerance=0.01, brake=None, 
     ``yield_speed`` [m/s] > 0, with ``brake`` given: a person walking at least that fast is given
     way to. A trajectory that is not braking (off the braking positions by more than
     :data:`BRAKING_TOLERANCE` at some step) is refused when at some step it is within their
-    distance of where they will be, whichever of the two closes
-    in: the robot stops and turns on the spot while a walker passes near or comes up to it, and
-    drives on only where they do not come that near (away from them, or once they have passed).
+    distance of where they will be, whichever of the two closes in: the robot stops and turns on
+    the spot while a walker passes near or comes up to it, and drives on only where they do not
+    come that near (away from them, or once they have passed).
 
     ``points`` (K, T, >= 2) [m], ``times`` (K, T) [s] (np.inf past a trajectory's last step),
     ``people`` (P, 4) (x, y, vx, vy); ``per_person`` (P,) [m]: each person's distance instead of
