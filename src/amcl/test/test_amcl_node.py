@@ -1,6 +1,7 @@
 """The amcl node against map_server and a scripted robot in this test process (no simulator):
 the upside-down laser through tf, amcl_pose / particlecloud / map->odom, initialpose, services."""
 
+import collections
 import math
 import threading
 
@@ -46,6 +47,7 @@ class FakeRobot:
         self.odom = np.zeros(3)
         self.velocity = (0.0, 0.0)
         self.lock = threading.Lock()
+        self.history = collections.deque(maxlen=400)  # (stamp [s], true pose) of the last 20 s of scans
         self.scan_pub = rospy.Publisher("amcl_test/scan", LaserScan, queue_size=2)
         self.tf_pub = tf2_ros.TransformBroadcaster()
         self.static = tf2_ros.StaticTransformBroadcaster()
@@ -70,6 +72,8 @@ class FakeRobot:
                     pose += [v * dt * math.cos(pose[2]), v * dt * math.sin(pose[2]), w * dt]
                 true, odom = self.true.copy(), self.odom.copy()
             stamp = self.rospy.Time.now()
+            with self.lock:
+                self.history.append((stamp.to_sec(), true))
             t = self.TransformStamped()
             t.header.stamp, t.header.frame_id, t.child_frame_id = stamp, "amcl_test/odom", "amcl_test/base_footprint"
             t.transform.translation.x, t.transform.translation.y = odom[0], odom[1]
@@ -90,6 +94,15 @@ class FakeRobot:
         msg.range_min, msg.range_max = 0.02, 5.6
         msg.ranges = ranges.astype(np.float32).tolist()
         return msg
+
+    def true_at(self, stamp):
+        """The true pose when the scan stamped ``stamp`` [s] was taken (a loaded amcl answers late, and the
+        robot drives on meanwhile); the current one if that scan is no longer remembered."""
+        with self.lock:
+            for t, pose in reversed(self.history):
+                if t <= stamp + 1e-6:
+                    return pose.copy()
+            return self.true.copy()
 
     def stop(self):
         self.running = False
@@ -139,8 +152,7 @@ def test_amcl_tracks_resets_and_relocalizes(setup, tf_buffer):
             return None
         p = msg.pose.pose
         yaw = 2 * math.atan2(p.orientation.z, p.orientation.w)
-        with robot.lock:
-            true = robot.true.copy()
+        true = robot.true_at(msg.header.stamp.to_sec())
         return math.hypot(p.position.x - true[0], p.position.y - true[1]), abs(
             angles.diff(yaw, true[2]))
 
@@ -217,7 +229,9 @@ def test_amcl_tracks_resets_and_relocalizes(setup, tf_buffer):
             robot.velocity = (0.2, 0.3)
         wait_for(lambda: converged(0.15, 0.15), 90, what="global localization to converge")
     except Exception:
-        print("last error", error(), robot.true)
+        last = latest.get("pose")
+        age = (rospy.Time.now() - last.header.stamp).to_sec() if last else None
+        print("last error", error(), "true now", robot.true, "last amcl_pose", age, "s old")
         raise
     finally:
         with robot.lock:
