@@ -104,10 +104,11 @@ def test_tracked_users_appended_positions_line_up_with_ids():
     from user_tracker_ni.msg import TrackedUsers
 
     extra = fields(TrackedUsers)[3:]
-    # appended in issue 3 (where), then issue 18 (how fast, when last seen, by which sensors, which way they face)
+    # appended in issue 3 (where), then issue 18 (how fast, when last seen, by which sensors, which way they face),
+    # then issue 20 (who sits)
     assert extra == [("stamp", "time"), ("frame_id", "string"), ("positions", "geometry_msgs/Point[]"),
                      ("velocities", "geometry_msgs/Vector3[]"), ("last_seen", "time[]"), ("sensors", "uint8[]"),
-                     ("facings", "float32[]")]
+                     ("facings", "float32[]"), ("seated", "bool[]")]
     msg = TrackedUsers(user_ids=[7], user_ids_ni=[1], num_users_tracked=1, positions=[Point(1.0, 0.5, 0.9)])
     assert msg.positions[0].x == 1.0
 

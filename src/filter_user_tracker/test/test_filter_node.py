@@ -29,7 +29,7 @@ def test_filter_drops_near_and_stale_users(ros_master, rospy_node, publisher):
                            frame_id="odom",
                            positions=[Point(3.0, 0.0, 0.85), Point(1.2, 0.1, 0.85), Point(2.0, 2.0, 0.85)],
                            velocities=[Vector3(0.1, 0, 0), Vector3(0.2, 0, 0), Vector3(0.3, 0, 0)],
-                           last_seen=[now, now, old], sensors=[1, 2, 3])
+                           last_seen=[now, now, old], sensors=[1, 2, 3], seated=[True, False, False])
 
         def filtered():
             pub.publish(msg)
@@ -39,6 +39,7 @@ def test_filter_drops_near_and_stale_users(ros_master, rospy_node, publisher):
         out = got[-1]
         assert (list(out.user_ids_ni), out.num_users_tracked, bytes(out.sensors)) == ([11], 1, b"\x01")
         assert out.positions[0].x == 3.0 and out.velocities[0].x == 0.1 and list(out.last_seen) == [now]
+        assert list(out.seated) == [True]
     finally:
         sub.unregister()
         node.stop()

@@ -134,6 +134,7 @@ def test_a_person_in_view_is_published_with_a_frame_and_markers(tracker, rospy_n
         # the person stands 2.5 m ahead and 0.3 m left of the robot, which is at (1, 2) in odom
         assert (msg.positions[0].x, msg.positions[0].y) == pytest.approx((3.5, 2.3), abs=0.1)
         assert len(msg.user_ids_ni) == 1 and msg.sensors[0] & 1
+        assert list(msg.seated) == [False]  # she stands
         frame = f"user_{msg.user_ids[0]}"
         wait_for(lambda: tf_buffer.can_transform("odom", frame, rospy_node.Time(0)), 10, what=f"tf {frame}")
         t = tf_buffer.lookup_transform("odom", frame, rospy_node.Time(0)).transform.translation

@@ -554,13 +554,24 @@ def test_a_seated_person_stays_where_the_kinect_placed_her_when_only_her_shins_a
         det = kinect(1.0 + 0.5 * k / RATE, 1.0, RED, rng)
         walker.update(k / RATE, [Detection(det.x, det.y, KINECT, 0.08, RED, posture="sitting")], KINECT)
     (track,) = walker.published()
-    assert track.sitting_count > 2 and track.seat is None
+    assert track.sitting_count > 2 and track.seat is None and not track.seated(walker.params)
     # her top cut off by the image ("unknown") says nothing: still seated
     unknown = Tracker()
     seated_then_close(unknown, np.random.default_rng(6))
     (track,) = unknown.published()
     unknown.update(10.0, [Detection(2.0, 1.0, KINECT, 0.08, RED, posture="unknown")], KINECT)
     assert track.seat is not None
+
+
+@pytest.mark.parametrize("posture, reach, seated", [("sitting", 0.3, True), ("standing", 0.3, False),
+                                                     ("sitting", 0.0, True)])
+def test_a_track_is_seated_when_the_kinect_said_so_while_it_stood_still(posture, reach, seated):
+    """What tracked_users' ``seated`` says: whether the Kinect's last detections of a still person said she
+    sits, whether her seat holds her track or not (seated_reach 0)."""
+    tracker = Tracker(TrackerParams(seated_reach=reach))
+    seated_then_close(tracker, np.random.default_rng(6), posture=posture)
+    (track,) = tracker.published()
+    assert track.seated(tracker.params) is seated
 
 
 def test_a_seated_person_who_gets_up_and_walks_is_followed_by_the_laser():
@@ -577,6 +588,7 @@ def test_a_seated_person_who_gets_up_and_walks_is_followed_by_the_laser():
     end = (1.85, 1.0 + 0.5 * (int(3 * RATE) - 1) / RATE)
     assert tracker.published() == [seated]
     assert seated.seat is None and math.hypot(seated.position[0] - end[0], seated.position[1] - end[1]) < 0.15
+    assert not seated.seated(tracker.params)
     with pytest.raises(ValueError, match="laser_gate"):  # a reach at the gate: her track would stand at the seat
         TrackerParams(seated_reach=TrackerParams.laser_gate).validate()
 

@@ -33,7 +33,7 @@ PARAMS = ParamTable(
     Param("transform_tolerance", float, 0.25, "the camera's latest pose on tf is used when it is at most this much "
           "older than the message (0: only at the message's stamp)", unit="s", ge=0),
 )
-PER_USER = ("user_ids", "user_ids_ni", "positions", "velocities", "last_seen", "sensors", "facings")
+PER_USER = ("user_ids", "user_ids_ni", "positions", "velocities", "last_seen", "sensors", "facings", "seated")
 
 
 class FilterUserTrackerNode:

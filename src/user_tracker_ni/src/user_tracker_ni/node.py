@@ -309,6 +309,7 @@ class UserTrackerNode:
             msg.velocities.append(Vector3(vx, vy, 0.0))
             facing = tr.facing(self.tracker.params)
             msg.facings.append(math.nan if facing is None else facing)
+            msg.seated.append(tr.seated(self.tracker.params))
             seen = max(t for t in (tr.last_kinect, tr.last_laser) if t is not None)
             msg.last_seen.append(rospy.Time.from_sec(seen))
             sensors.append((1 if tr.last_kinect is not None and now - tr.last_kinect <= RECENT else 0)

@@ -246,6 +246,11 @@ class Track:
     def velocity(self):
         return self.filter.velocity
 
+    def seated(self, params):
+        """Whether the person sits: the Kinect's last ``seated_frames`` detections of her said so (no
+        standing one since) and her track is slower than ``facing_walk_speed`` (nobody walks seated)."""
+        return self.sitting_count >= params.seated_frames and math.hypot(*self.velocity) < params.facing_walk_speed
+
     def facing(self, params):
         """Which way [rad] the person faces in the fixed frame, or None (module docstring)."""
         vx, vy = self.velocity
