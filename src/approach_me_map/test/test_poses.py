@@ -74,6 +74,27 @@ def test_a_user_facing_away_from_the_robot_is_approached_from_her_front(facing_d
         assert rank(user, robot, P, room(), facing=unknown)[0].y < user[1]
 
 
+@pytest.mark.parametrize("facing_deg", [90.0, -90.0])
+def test_a_seated_user_whose_facing_is_unknown_is_approached_from_beside_her(facing_deg):
+    """The robot south of a seated user whose facing the tracker does not say: the best poses are
+    east and west of her (beside her whether she faces north, away from the robot, or south, toward
+    it: facing_deg is her true facing, never shown to rank), the robot's side and the far side last;
+    so the robot never stands at her back (more than side_limit from her facing) while a pose beside
+    her is free. A standing user, or one without a seat, keeps the robot's side as her front."""
+    user, robot, facing = (4.0, 4.0), (4.0, 1.0), math.radians(facing_deg)
+    ranked = rank(user, robot, P, room(), seated=True)
+    assert abs(abs(math.degrees(ranked[0].offset)) - 90.0) < 1e-6
+    assert not behind(user, (ranked[0].x, ranked[0].y), facing, P.side_limit)
+    near_axis = [i for i, c in enumerate(ranked) if abs(math.sin(c.angle)) > math.sin(math.radians(46.0))]
+    beside = [i for i, c in enumerate(ranked) if abs(math.sin(c.angle)) <= math.sin(math.radians(44.0))]
+    assert max(beside) < min(near_axis)
+    # a wall east of her: west first
+    assert rank(user, robot, P, room(walls=[(4.3, 0.0, 4.5, 8.0)]), seated=True)[0].x < user[0] - 0.4
+    # her facing known: it is the front, seated or not
+    assert rank(user, robot, P, room(), facing=facing, seated=True)[0] == rank(user, robot, P, room(), facing=facing)[0]
+    assert rank(user, robot, P, room(), seated=False)[0].y < user[1]
+
+
 def test_a_user_facing_a_wall_is_approached_from_her_side_not_from_behind():
     """Seated 0.4 m from a wall she faces (north), the robot south of her: nothing fits in front, so
     her sides before her back, although her back is the robot's side."""

@@ -4,12 +4,12 @@ Table 13).
 On ``detected_user`` with command true, the node ranks poses around the user at
 ``~safe_distance`` + ``~goal_standoff`` (approach_me_map.poses: in front of the user, front-left /
 front-right before head-on, never behind her while another pose is free; the front is the way the
-tracker says she faces, the robot's side while it does not say), asks move_base's make_plan for a
-path to the best ones, sends the first with a path as a move_base goal, and after move_base stops
-turns to face the user and drives straight to ``~safe_distance`` (the last half metre, closed on
-odometry: move_base's 0.25 m goal tolerance is too coarse). A failed trial moves on to another
-pose: at most ``~trials`` (3, seed), then ABORTED. The user's position follows the tracker while
-the robot approaches.
+tracker says she faces, the robot's side while it does not say, beside her if she sits), asks
+move_base's make_plan for a path to the best ones, sends the first with a path as a move_base goal,
+and after move_base stops turns to face the user and drives straight to ``~safe_distance`` (the
+last half metre, closed on odometry: move_base's 0.25 m goal tolerance is too coarse). A failed
+trial moves on to another pose: at most ``~trials`` (3, seed), then ABORTED. The user's position
+follows the tracker while the robot approaches.
 ``detected_user`` with command false stops the approach (its move_base goal is cancelled).
 
 ROS Parameters: PARAMS below (rendered in the README).
@@ -17,8 +17,8 @@ ROS Parameters: PARAMS below (rendered in the README).
 ROS Subscribers:
     detected_user (detect_users/DetectedUser): command true: approach the user at (x, y) in
         ~map_frame; command false: stop.
-    filtered_tracked_users (user_tracker_ni/TrackedUsers): the user's position while approaching
-        and which way she faces (``facings``).
+    filtered_tracked_users (user_tracker_ni/TrackedUsers): the user's position while approaching,
+        which way she faces (``facings``) and whether she sits (``seated``).
     map (nav_msgs/OccupancyGrid): walls and furniture, to rank the poses.
     scan (sensor_msgs/LaserScan): what is ahead of the robot in the last half metre.
     odom (nav_msgs/Odometry): the robot's speed at rest or not.
@@ -172,6 +172,8 @@ class ApproachMeMapNode:
         self.request = None  # (x, y) of the newest detection not yet taken
         self.user = None  # (x, y) [m, map] of the user being approached
         self.facing = None  # [rad, map] which way she faces (the tracker's latest word), None: unknown
+        self.seated = False  # whether she sits (the tracker's latest word)
+        self.track_seated = np.zeros(0, dtype=bool)  # of the latest tracked users, in self.tracks' order
         # the latest tracked users: xy [m, map], facings [rad, map], speeds [m/s] (NaN: not given)
         self.tracks = (np.empty((0, 2)), np.empty(0), np.empty(0))
         self.scan = None  # (stamp [s], points [N, 2] in base_frame)
@@ -255,8 +257,9 @@ class ApproachMeMapNode:
         if self.p.use_facing and len(msg.facings) == len(xy):
             facings = np.asarray(msg.facings, dtype=float) + pose2d.yaw_of_matrix(m[:3, :3])  # NaN stays NaN
             facings = still_facings(facings, np.nan_to_num(speeds, nan=0.0), self.p.facing_max_speed)
+        seated = np.array(msg.seated, dtype=bool) if len(msg.seated) == len(xy) else np.zeros(len(xy), dtype=bool)
         with self.lock:
-            self.tracks = (xy, facings, speeds)
+            self.tracks, self.track_seated = (xy, facings, speeds), seated
             user = self.user if self.running else None
         if user is None:
             return
@@ -266,6 +269,7 @@ class ApproachMeMapNode:
         with self.lock:
             if self.running:
                 self.user = (float(xy[k, 0]), float(xy[k, 1]))
+                self.seated = bool(seated[k])
                 if math.isfinite(facings[k]):
                     self.facing = float(angles.wrap(facings[k]))
 
@@ -312,6 +316,7 @@ class ApproachMeMapNode:
                 xy, facings, _ = self.tracks
                 k = nearest_track(request, xy, self.p.track_gate)
                 self.facing = float(angles.wrap(facings[k])) if k is not None and math.isfinite(facings[k]) else None
+                self.seated = k is not None and bool(self.track_seated[k])
             outcome, why = "ABORTED", ""
             try:
                 outcome, why = self._approach()
@@ -352,7 +357,7 @@ class ApproachMeMapNode:
         if not server_ready(self.client):
             return "ABORTED", "move_base is not running"
         tried, notes = [], []
-        started, front_over = rospy.get_time(), False
+        started, front_over, learnt = rospy.get_time(), False, False
         with self.lock:
             self.met = []
         trial, limit = 0, p.trials
@@ -364,6 +369,7 @@ class ApproachMeMapNode:
                 return "ABORTED", f"no robot pose: {why}"
             with self.lock:
                 user, grid, facing = self.user, self.grid, None if front_over else self.facing
+                seated = self.seated and not front_over
             # move_base's goal ~goal_standoff beyond safe_distance (the last half metre drives the rest):
             # its people layer keeps plans 0.3 m + the inscribed radius (0.47 m) from the tracked centre of the
             # very user approached, and a goal at 0.5 m fell into that as her track moved a few cm (make demo:
@@ -374,7 +380,7 @@ class ApproachMeMapNode:
             goal = None
             for k, radius in enumerate(radii[:3]):
                 ring = dataclasses.replace(self.params, safe_distance=radius)
-                candidates = rank(user, robot[:2], ring, grid, exclude=tried, facing=facing)
+                candidates = rank(user, robot[:2], ring, grid, exclude=tried, facing=facing, seated=seated)
                 if trial == 1 and k == 0:
                     self._publish_candidates(candidates)
                 goal, way = self._plannable(candidates, robot, beat, user)
@@ -392,14 +398,20 @@ class ApproachMeMapNode:
             with self.lock:
                 met = len(self.met)
             ok, why = self._drive(goal, user, beat, last=trial == limit, use_facing=facing is not None,
-                                  deadline=deadline, way=way)
+                                  deadline=deadline, way=way, learn_facing=seated and facing is None)
             with self.lock:
                 if len(self.met) > met:  # somebody else in the way, not her front out of reach: a new budget
                     started = rospy.get_time()
-            front = "the robot's side" if facing is None else f"her facing {math.degrees(facing):.0f} deg"
+            front = (f"her facing {math.degrees(facing):.0f} deg" if facing is not None else
+                     "the robot's side, beside her" if seated else "the robot's side")
             notes.append(f"trial {trial} at {math.degrees(goal.offset):+.0f} deg from {front}: {why}")
             if ok:
                 return "SUCCEEDED", "; ".join(notes)
+            with self.lock:
+                seen = self.facing is not None
+            if seated and facing is None and seen and not learnt:
+                # her facing came while the trial ran: the next ones are ranked from it, one more if none is left
+                learnt, limit, started = True, max(limit, trial + 1), rospy.get_time()
             if facing is not None and rospy.get_time() >= deadline:
                 # her front is out of reach (a corner seat, her knees, the tracker's facing off): the robot's
                 # side from now on, with one more trial if this was the last
@@ -454,12 +466,14 @@ class ApproachMeMapNode:
                           "none" if chosen is None else f"{math.degrees(chosen.offset):+.0f} deg", "; ".join(seen))
         return chosen, way
 
-    def _drive(self, goal, user, beat, last, use_facing=True, deadline=math.inf, way=None):
+    def _drive(self, goal, user, beat, last, use_facing=True, deadline=math.inf, way=None, learn_facing=False):
         """One trial: move_base to ``goal``, then the last half metre (``last``: the last trial). (ok, what
         happened). ``use_facing``: the trial ranked from her facing (else from the robot's side, and
         ending at her back is no failure); past ``deadline`` [s] (ROS time) it ends; ``way``: make_plan's
         path (N, 2) [m, map], clear of everybody else when chosen: somebody seen standing near what is
-        left of it ends the trial."""
+        left of it ends the trial; ``learn_facing``: ranked beside a seated user whose facing was unknown,
+        the trial ends once the tracker says it and the pose is behind her (not for a standing user: the
+        tracker's facing of one whose top the image cuts off close up may be anything)."""
         p = self.p
         done = threading.Event()
         aim, target = user, (goal.x, goal.y)  # the user's place the pose was put around, and the pose
@@ -486,6 +500,11 @@ class ApproachMeMapNode:
                     self._announce(now_user)
                 if math.hypot(now_user[0] - user[0], now_user[1] - user[1]) > p.retarget_distance:
                     ended = f"the user moved to ({now_user[0]:.2f}, {now_user[1]:.2f})"
+                    break
+                with self.lock:
+                    facing = self.facing
+                if learn_facing and facing is not None and behind(now_user, target, facing, self.params.side_limit):
+                    ended = f"her facing seen ({math.degrees(facing):.0f} deg): the pose is behind her"
                     break
                 shift = (now_user[0] - aim[0], now_user[1] - aim[1])
                 if math.hypot(*shift) > p.reaim_distance and rospy.get_time() - sent > p.reaim_period:

@@ -18,6 +18,14 @@ that crosses no obstacle (no pose on the far side of a wall). Candidates are ran
   seated person's knees (florence_sim's seated body: shins 0.15-0.3 m in front of her centre, and
   the tracker's centre is pulled a little toward them), so the front-left / front-right poses
   start at 45 degrees;
+- a seated person whose facing the tracker does not say (user_tracker_ni's ``seated``): beside
+  her first, 90 degrees either way from the robot's side, and the robot's side and the far side
+  like the far side of a known facing. The tracker reads a seated person's facing from her shins
+  in front of her torso; where it sees none, the robot most likely looks at her back (or her shins
+  hide behind a table), so its own side may be her back, and so may the far side: beside her is
+  neither. From there the Kinect sees her shins, and once her facing is known a pose behind her
+  ends the trial (make_plan ranked anew from her facing) (bench/locator.py seed 2: a user seated in
+  the open, seen from behind, was approached at her back, 162 degrees from her front);
 - front-left or front-right rather than head-on: an offset near ``preferred_offset`` (30 deg)
   costs least (Dautenhahn et al. 2006: seated people dislike a frontal approach and prefer the
   left or right, slightly the right; Walters et al. 2007: frontal is acceptable for a standing
@@ -116,12 +124,12 @@ class ObstacleGrid(Grid):
         return self.clearance_at(xy) >= radius
 
 
-def rank(user, robot, p, grid=None, exclude=(), facing=None):
+def rank(user, robot, p, grid=None, exclude=(), facing=None, seated=False):
     """Candidate poses around ``user`` (x, y) [m] for a robot at ``robot`` (x, y) [m], best first
     (module docstring). ``grid``: an ObstacleGrid (None: every pose is free); ``exclude``: angles
     [rad] around the user already tried (candidates nearer than p.trial_separation are left out);
     ``facing`` [rad]: which way the user faces, in the frame of ``user`` (None or not finite:
-    unknown, the robot's side is the front)."""
+    unknown, the robot's side is the front, or, ``seated``, beside her comes first)."""
     ux, uy = user
     known = facing is not None and math.isfinite(facing)
     front = facing if known else math.atan2(robot[1] - uy, robot[0] - ux)
@@ -143,7 +151,8 @@ def rank(user, robot, p, grid=None, exclude=(), facing=None):
         if grid is not None and not grid.line_free(xy[k], (ux, uy), skip_near_b=p.user_radius):
             continue
         off = float(offsets[k])
-        cost = _angle_cost(abs(off), p) + 0.2 * max(0.0, 0.45 - min(clearance[k], 0.45)) / 0.2
+        cost = _beside_cost(abs(off), p) if seated and not known else _angle_cost(abs(off), p)
+        cost += 0.2 * max(0.0, 0.45 - min(clearance[k], 0.45)) / 0.2
         if off < 0:  # clockwise from the way the person faces: their right
             cost -= p.right_bonus
         cost += 0.1 * float(np.hypot(xy[k, 0] - robot[0], xy[k, 1] - robot[1]))
@@ -259,6 +268,16 @@ def _angle_cost(offset, p):
     if offset <= p.side_limit:  # beside the person
         return 0.5 + (offset - 2 * front) / max(p.side_limit - 2 * front, 1e-6)
     return 3.0 + (offset - p.side_limit) / math.pi  # the far side: only when nothing else is free
+
+
+def _beside_cost(offset, p):
+    """Cost of a pose ``offset`` [rad] (absolute) from the robot's side of a seated user whose facing is
+    unknown: beside her (90 deg) best, within ``preferred_offset`` * 1.5 of it; nearer the robot's side or
+    the far side, either of which may be her back, as the far side of a known facing."""
+    side, reach = abs(offset - math.pi / 2), 1.5 * p.preferred_offset
+    if side <= reach:
+        return 0.5 * side / reach
+    return 3.0 + (side - reach) / math.pi
 
 
 # --- the last half metre -------------------------------------------------------------------------------------------
