@@ -60,6 +60,39 @@ def following(robot, person, feedback, states, desired, since, until):
     }
 
 
+def ideal_following(person, robot_xy, desired, since, until, max_speed=0.5, max_acc=1.0, delay=0.0, dt=0.02):
+    """What a perfect follower would score on ``person``'s true rows (t, x, y) over [since, until] [s]:
+    starting at rest at ``robot_xy`` (x, y) [m] at ``since``, it drives straight at the person (turning
+    at once, through walls, seeing them without delay) at the speed that brings the distance to
+    ``desired`` [m] soonest within ``max_speed`` [m/s] (forward or back) and ``max_acc`` [m/s^2] (the
+    base's limits: follow_me's and velocity_filter's 1.0); with ``delay`` [s], it sees where the
+    person was (and how fast they went) that long before. With no delay, a bound from below for the
+    real robot, which must turn, go round the doorway's jambs and wait for the tracker. Returns RMS and
+    largest error [m] as :func:`following` does, and the mean distance."""
+    person = np.asarray(person, dtype=float).reshape(-1, 3)
+    t = np.arange(since, until + 1e-9, dt)
+    px, py = np.interp(t, person[:, 0], person[:, 1]), np.interp(t, person[:, 0], person[:, 2])
+    seen_x, seen_y = np.interp(t - delay, person[:, 0], person[:, 1]), np.interp(t - delay, person[:, 0], person[:, 2])
+    vx, vy = np.gradient(seen_x, dt), np.gradient(seen_y, dt)
+    r, v = np.array(robot_xy, dtype=float), 0.0
+    err = np.empty(len(t))
+    for k in range(len(t)):
+        err[k] = math.hypot(px[k] - r[0], py[k] - r[1]) - desired
+        ux, uy = seen_x[k] - r[0], seen_y[k] - r[1]
+        d = math.hypot(ux, uy)
+        if d < 1e-9:
+            continue
+        ux, uy = ux / d, uy / d
+        away = vx[k] * ux + vy[k] * uy  # the person's speed away from the robot
+        # the speed that closes the gap soonest and arrives at the person's: braking at max_acc
+        gap = d - desired
+        wanted = away + math.copysign(math.sqrt(2.0 * max_acc * abs(gap)), gap)
+        v = float(np.clip(np.clip(wanted, v - max_acc * dt, v + max_acc * dt), -max_speed, max_speed))
+        r = r + v * dt * np.array([ux, uy])
+    return {"rms_error_m": float(np.sqrt(np.mean(err ** 2))), "max_error_m": float(np.max(np.abs(err))),
+            "mean_distance_m": float(np.mean(err) + desired)}
+
+
 def approach_target(person, robot0, distance, p2r):
     """(x, y) of the position the goal asks for, from the person's and the robot's true positions at
     goal time (approach_me.geometry: the product's own definition)."""

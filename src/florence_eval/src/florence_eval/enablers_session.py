@@ -29,6 +29,7 @@ from florence_eval.people_session import PeopleSession, _registered
 
 TELEOP = "/cmd_vel_mux/input/teleop"
 START_TOLERANCE = 0.05  # [m] a follow trial's person sets off once the robot stands this near the distance
+IDEAL_DELAYS = (0.0, 0.3, 0.6)  # [s] a perfect follower seeing the person this late: its RMS error beside the robot's
 STATE_NAMES = {v: k for k, v in vars(GoalStatus).items() if isinstance(v, int) and k.isupper()}
 NODES = ("/florence_sim", "/collision_monitor", "/velocity_filter_node", "/user_tracker_ni_node", "/follow_me_node",
          "/approach_me_node")
@@ -254,7 +255,9 @@ class EnablersSession(PeopleSession):
         ``desired`` behind them after they arrived (at most ``settle`` s later). The goal is left
         running. Returns the measures (enablers_metrics.following, from the walk's start; a fixed 2 s
         left the robot 0.11-0.14 m short of settled, a lag the walk at its top speed never made up),
-        the distance at the walk's start, the goal's state, the collisions and the tracks."""
+        the distance at the walk's start, the goal's state, the collisions and the tracks; and the RMS
+        error a perfect follower would have had, seeing the person IDEAL_DELAYS late
+        (enablers_metrics.ideal_following)."""
         from florence_eval import enablers_metrics
 
         heading = math.atan2(path[1][1] - path[0][1], path[1][0] - path[0][0])
@@ -274,10 +277,14 @@ class EnablersSession(PeopleSession):
                  or self.sim_now() - arrived > settle, 20 * settle + 60, what="the robot settling behind")
         self.wait_still(timeout=60)
         end = self.sim_now()
-        result = enablers_metrics.following(self.truth_log(walk), self.person_log(pid, walk),
-                                            self.feedback_log("follow_me", walk), self.states_log("follow_me", t0),
-                                            desired, walk, end)
-        return {**result, "start_distance_m": start_distance, "state": STATE_NAMES.get(self.follow_client.get_state()),
+        robot_log, person_log = self.truth_log(walk), self.person_log(pid, walk)
+        result = enablers_metrics.following(robot_log, person_log, self.feedback_log("follow_me", walk),
+                                            self.states_log("follow_me", t0), desired, walk, end)
+        ideal = {f"{delay:.1f}_s": enablers_metrics.ideal_following(person_log, robot_log[0, 1:3], desired, walk, end,
+                                                                     delay=delay)["rms_error_m"]
+                 for delay in IDEAL_DELAYS}
+        return {**result, "ideal_rms_error_m": ideal, "start_distance_m": start_distance,
+                "state": STATE_NAMES.get(self.follow_client.get_state()),
                 "text": self.follow_client.get_goal_status_text(), "collisions": self.collisions - collisions,
                 "final_distance_m": math.dist(self.pose()[:2], self.person(pid)), "walk_s": arrived - walk,
                 "robot_track": self.truth_log(walk, end)[::5].round(3).tolist(),
