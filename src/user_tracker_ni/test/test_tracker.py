@@ -464,7 +464,8 @@ def test_a_seated_person_faces_where_the_kinect_said_and_a_walking_one_the_way_t
     for k in range(int(2 * RATE)):  # seated at (2, 1): the shins say 160 deg give or take 20
         t = k / RATE
         det = kinect(2.0, 1.0, RED, rng)
-        tracker.update(t, [Detection(det.x, det.y, KINECT, 0.08, RED, facing=facing + rng.normal(0, 0.35))], KINECT)
+        tracker.update(t, [Detection(det.x, det.y, KINECT, 0.08, RED, facing=facing + rng.normal(0, 0.35),
+                                     posture="sitting")], KINECT)
     (track,) = tracker.published()
     assert abs(math.remainder(track.facing(p) - facing, 2 * math.pi)) < math.radians(15)
     for k in range(1, int(2 * RATE)):  # gets up and walks off along -y at 0.6 m/s, the Kinect saying nothing of it
@@ -472,6 +473,24 @@ def test_a_seated_person_faces_where_the_kinect_said_and_a_walking_one_the_way_t
     (track,) = tracker.published()
     assert abs(math.remainder(track.facing(p) + math.pi / 2, 2 * math.pi)) < math.radians(20)
     assert track.facing_count == 0  # walking cleared what the Kinect said
+
+
+@pytest.mark.parametrize("posture", ["unknown", "standing"])
+def test_a_still_person_not_seen_sitting_has_no_facing(posture):
+    """Close up the image cuts a standing person's top off (posture "unknown") and depth_people may read
+    her legs under her torso as shins: however well such frames agree, she faces nowhere known, unless
+    the Kinect saw her sitting (bench/locator.py: a standing user given a facing 180 deg off hers, and
+    approach_me_map went to her back)."""
+    rng = np.random.default_rng(4)
+    tracker, p = Tracker(), TrackerParams()
+    for k in range(int(2 * RATE)):
+        det = kinect(2.0, 1.0, RED, rng)
+        tracker.update(k / RATE, [Detection(det.x, det.y, KINECT, 0.08, RED, facing=2.5, posture=posture)], KINECT)
+    (track,) = tracker.published()
+    assert track.facing_count >= p.facing_frames and track.facing(p) is None
+    tracker.update(2.0 + 1 / RATE, [Detection(2.0, 1.0, KINECT, 0.08, RED, facing=2.5, posture="sitting")], KINECT)
+    tracker.update(2.0 + 2 / RATE, [Detection(2.0, 1.0, KINECT, 0.08, RED, facing=2.5, posture="sitting")], KINECT)
+    assert track.seated(p) and track.facing(p) == pytest.approx(2.5)  # seen sitting: her shins count
 
 
 def test_facing_stays_unknown_until_enough_frames_agree():

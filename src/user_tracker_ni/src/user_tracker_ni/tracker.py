@@ -77,11 +77,13 @@ the robot), so such a detection within ``seated_reach`` of the seat is hers what
 and they are not learnt.
 
 Facing (:attr:`Track.facing`): a person walking at ``facing_walk_speed`` or faster faces the way
-they walk; a still one faces the way the Kinect's detections said (depth_people: a seated
-person's shins in front of the torso), as the mean of their unit vectors, once
+they walk; a still one who sits (:meth:`Track.seated`) faces the way the Kinect's detections said
+(depth_people: a seated person's shins in front of the torso), as the mean of their unit vectors, once
 ``facing_frames`` frames said it and they agree (the mean's length at least
 ``facing_agreement``); walking clears it (who sits down again may face elsewhere). Otherwise
-unknown (None).
+unknown (None): close up, the image cuts a standing person's top off (posture "unknown") and her
+legs under her torso read as shins (bench/locator.py: standing users given facings 180 deg off,
+approach_me_map then went to their backs).
 """
 
 import itertools
@@ -256,7 +258,7 @@ class Track:
         vx, vy = self.velocity
         if math.hypot(vx, vy) >= params.facing_walk_speed:
             return math.atan2(vy, vx)
-        if self.facing_count < params.facing_frames:
+        if self.facing_count < params.facing_frames or not self.seated(params):
             return None
         if float(np.hypot(*self.facing_sum)) < params.facing_agreement * self.facing_count:
             return None
