@@ -475,22 +475,28 @@ def test_a_seated_person_faces_where_the_kinect_said_and_a_walking_one_the_way_t
     assert track.facing_count == 0  # walking cleared what the Kinect said
 
 
-@pytest.mark.parametrize("posture", ["unknown", "standing"])
-def test_a_still_person_not_seen_sitting_has_no_facing(posture):
+def test_a_person_last_seen_standing_has_no_facing():
     """Close up the image cuts a standing person's top off (posture "unknown") and depth_people may read
-    her legs under her torso as shins: however well such frames agree, she faces nowhere known, unless
-    the Kinect saw her sitting (bench/locator.py: a standing user given a facing 180 deg off hers, and
-    approach_me_map went to her back)."""
-    rng = np.random.default_rng(4)
-    tracker, p = Tracker(), TrackerParams()
-    for k in range(int(2 * RATE)):
-        det = kinect(2.0, 1.0, RED, rng)
-        tracker.update(k / RATE, [Detection(det.x, det.y, KINECT, 0.08, RED, facing=2.5, posture=posture)], KINECT)
-    (track,) = tracker.published()
-    assert track.facing_count >= p.facing_frames and track.facing(p) is None
-    tracker.update(2.0 + 1 / RATE, [Detection(2.0, 1.0, KINECT, 0.08, RED, facing=2.5, posture="sitting")], KINECT)
-    tracker.update(2.0 + 2 / RATE, [Detection(2.0, 1.0, KINECT, 0.08, RED, facing=2.5, posture="sitting")], KINECT)
-    assert track.seated(p) and track.facing(p) == pytest.approx(2.5)  # seen sitting: her shins count
+    her legs under her torso as shins: once the Kinect saw her standing, however well such frames agree,
+    she faces nowhere known (bench/locator.py: a standing user given a facing 180 deg off hers, and
+    approach_me_map went to her back). A person seen only close up (a seated one the robot came to) keeps
+    what they say, and one seen sitting after standing faces where her shins say."""
+    p = TrackerParams()
+
+    def seen(postures):
+        tracker, rng = Tracker(), np.random.default_rng(4)
+        for k, posture in enumerate(postures):
+            det = kinect(2.0, 1.0, RED, rng)
+            facing = None if posture == "standing" else 2.5  # depth_people gives a standing person none
+            tracker.update(k / RATE, [Detection(det.x, det.y, KINECT, 0.08, RED, facing=facing, posture=posture)],
+                           KINECT)
+        (track,) = tracker.published()
+        return track.facing(p)
+
+    n = int(2 * RATE)
+    assert seen(["standing"] * n + ["unknown"] * n) is None
+    assert seen(["unknown"] * n) == pytest.approx(2.5)
+    assert seen(["standing"] * n + ["sitting"] * 2 + ["unknown"] * n) == pytest.approx(2.5)
 
 
 def test_facing_stays_unknown_until_enough_frames_agree():

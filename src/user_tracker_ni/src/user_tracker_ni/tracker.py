@@ -77,13 +77,14 @@ the robot), so such a detection within ``seated_reach`` of the seat is hers what
 and they are not learnt.
 
 Facing (:attr:`Track.facing`): a person walking at ``facing_walk_speed`` or faster faces the way
-they walk; a still one who sits (:meth:`Track.seated`) faces the way the Kinect's detections said
-(depth_people: a seated person's shins in front of the torso), as the mean of their unit vectors, once
+they walk; a still one faces the way the Kinect's detections said (depth_people: a seated
+person's shins in front of the torso), as the mean of their unit vectors, once
 ``facing_frames`` frames said it and they agree (the mean's length at least
-``facing_agreement``); walking clears it (who sits down again may face elsewhere). Otherwise
-unknown (None): close up, the image cuts a standing person's top off (posture "unknown") and her
-legs under her torso read as shins (bench/locator.py: standing users given facings 180 deg off,
-approach_me_map then went to their backs).
+``facing_agreement``); walking clears it (who sits down again may face elsewhere). Not while the
+Kinect's last word on her posture was "standing" (:attr:`Track.stood`): close up, the image cuts a
+standing person's top off (posture "unknown") and her legs under her torso read as shins
+(bench/locator.py: standing users given facings 180 deg off, approach_me_map then went to their
+backs); a seated person seen only close up keeps hers. Otherwise unknown (None).
 """
 
 import itertools
@@ -223,6 +224,7 @@ class Track:
     facing_sum: np.ndarray = field(default_factory=lambda: np.zeros(2))  # sum of the facings' unit vectors ...
     facing_count: int = 0  # ... and how many, since the person last walked
     sitting_count: int = 0  # Kinect detections in a row that said the person sits
+    stood: bool = False  # the Kinect's last word on her posture (sitting or standing) was standing
     seat: tuple | None = None  # (x, y) [m] where the Kinect placed her sitting (module docstring), None: not seated
 
     @property
@@ -258,7 +260,7 @@ class Track:
         vx, vy = self.velocity
         if math.hypot(vx, vy) >= params.facing_walk_speed:
             return math.atan2(vy, vx)
-        if self.facing_count < params.facing_frames or not self.seated(params):
+        if self.facing_count < params.facing_frames or self.stood:
             return None
         if float(np.hypot(*self.facing_sum)) < params.facing_agreement * self.facing_count:
             return None
@@ -464,13 +466,14 @@ class Tracker:
             track.kinect_hits += 1
             if det.posture == "sitting":
                 track.sitting_count += 1
+                track.stood = False
                 slow = float(np.hypot(*track.velocity)) < self.params.facing_walk_speed  # nobody walks seated
                 if not slow:
                     track.seat = None
                 elif track.sitting_count >= self.params.seated_frames and self.params.seated_reach > 0:
                     track.seat = tuple(float(v) for v in track.position)
             elif det.posture == "standing":  # "unknown" (her top cut off by the image) says nothing
-                track.sitting_count, track.seat = 0, None
+                track.sitting_count, track.seat, track.stood = 0, None, True
             if det.facing is not None and math.isfinite(det.facing):
                 track.facing_sum = track.facing_sum + np.array([math.cos(det.facing), math.sin(det.facing)])
                 track.facing_count += 1
