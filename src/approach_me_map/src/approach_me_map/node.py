@@ -501,11 +501,12 @@ class ApproachMeMapNode:
                 if math.hypot(now_user[0] - user[0], now_user[1] - user[1]) > p.retarget_distance:
                     ended = f"the user moved to ({now_user[0]:.2f}, {now_user[1]:.2f})"
                     break
-                with self.lock:
-                    facing = self.facing
-                if learn_facing and facing is not None and behind(now_user, target, facing, self.params.side_limit):
-                    ended = f"her facing seen ({math.degrees(facing):.0f} deg): the pose is behind her"
-                    break
+                if learn_facing:
+                    with self.lock:
+                        facing = self.facing
+                    if facing is not None and behind(now_user, target, facing, self.params.side_limit):
+                        ended = f"her facing seen ({math.degrees(facing):.0f} deg): the pose is behind her"
+                        break
                 shift = (now_user[0] - aim[0], now_user[1] - aim[1])
                 if math.hypot(*shift) > p.reaim_distance and rospy.get_time() - sent > p.reaim_period:
                     # the tracker places her better as the robot comes closer (amcl's error, a far

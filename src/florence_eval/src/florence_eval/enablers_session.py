@@ -287,8 +287,8 @@ class EnablersSession(PeopleSession):
                 "state": STATE_NAMES.get(self.follow_client.get_state()),
                 "text": self.follow_client.get_goal_status_text(), "collisions": self.collisions - collisions,
                 "final_distance_m": math.dist(self.pose()[:2], self.person(pid)), "walk_s": arrived - walk,
-                "robot_track": self.truth_log(walk, end)[::5].round(3).tolist(),
-                "person_track": self.person_log(pid, walk, end)[::5].round(3).tolist()}
+                "robot_track": robot_log[robot_log[:, 0] <= end][::5].round(3).tolist(),
+                "person_track": person_log[person_log[:, 0] <= end][::5].round(3).tolist()}
 
     def approach_trial(self, robot, pid, person, shirt, distance, p2r, r2p, timeout=60.0):
         """ApproachMe to ``pid`` standing at ``person`` with the robot at ``robot``; judged by ground truth

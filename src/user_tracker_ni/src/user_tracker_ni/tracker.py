@@ -250,16 +250,19 @@ class Track:
     def velocity(self):
         return self.filter.velocity
 
+    def still(self, params):
+        """Whether the track is slower than ``facing_walk_speed`` (not walking: nobody walks seated)."""
+        return math.hypot(*self.velocity) < params.facing_walk_speed
+
     def seated(self, params):
         """Whether the person sits: the Kinect's last ``seated_frames`` detections of her said so (no
-        standing one since) and her track is slower than ``facing_walk_speed`` (nobody walks seated)."""
-        return self.sitting_count >= params.seated_frames and math.hypot(*self.velocity) < params.facing_walk_speed
+        standing one since) and her track is still."""
+        return self.sitting_count >= params.seated_frames and self.still(params)
 
     def facing(self, params):
         """Which way [rad] the person faces in the fixed frame, or None (module docstring)."""
-        vx, vy = self.velocity
-        if math.hypot(vx, vy) >= params.facing_walk_speed:
-            return math.atan2(vy, vx)
+        if not self.still(params):
+            return math.atan2(self.velocity[1], self.velocity[0])
         if self.facing_count < params.facing_frames or self.stood:
             return None
         if float(np.hypot(*self.facing_sum)) < params.facing_agreement * self.facing_count:
@@ -459,7 +462,7 @@ class Tracker:
         track.sources.add(source)
         x, y = track.position
         track.travelled = max(track.travelled, float(np.hypot(x - track.start[0], y - track.start[1])))
-        if float(np.hypot(*track.velocity)) >= self.params.facing_walk_speed:
+        if not track.still(self.params):  # walking clears what the Kinect said of her facing
             track.facing_sum, track.facing_count = np.zeros(2), 0
         if source == KINECT:
             track.last_kinect = t
@@ -467,8 +470,7 @@ class Tracker:
             if det.posture == "sitting":
                 track.sitting_count += 1
                 track.stood = False
-                slow = float(np.hypot(*track.velocity)) < self.params.facing_walk_speed  # nobody walks seated
-                if not slow:
+                if not track.still(self.params):
                     track.seat = None
                 elif track.sitting_count >= self.params.seated_frames and self.params.seated_reach > 0:
                     track.seat = tuple(float(v) for v in track.position)
