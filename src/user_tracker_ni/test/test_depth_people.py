@@ -78,6 +78,26 @@ def test_no_facing_without_the_shins_in_front_or_for_a_standing_person():
     assert standing.posture == "standing" and standing.facing is None
 
 
+@pytest.mark.parametrize("distance", [1.5, 1.8, 2.0, 2.3, 2.5, 2.8])
+@pytest.mark.parametrize("lateral", [-0.6, 0.3, 0.6])
+def test_a_standing_person_close_up_has_no_facing(distance, lateral):
+    """Nearer than ~2.9 m the image cuts a standing person's head off (posture unknown): her legs
+    under her torso are narrower than it, so their near sides lie 0.09-0.10 m beyond its near side,
+    and that read as shins: facings 5-22 deg off the line of sight, away from the camera."""
+    (person,), _ = run(scenes.standing(distance, lateral, RED))
+    assert person.posture == "unknown"
+    assert person.facing is None, math.degrees(person.facing)
+
+
+@pytest.mark.parametrize("facing_deg", [180, 165, 150, -150])
+def test_a_sitting_person_facing_the_camera_close_up_has_her_facing(facing_deg):
+    """At 1.5 m her shins' near sides are less than facing_min_offset before her torso's: told from
+    their centres they stand out."""
+    people, _ = run(scenes.sitting(1.5, 0.2, BLUE, facing=math.radians(facing_deg)))
+    assert len(people) == 1 and people[0].facing is not None
+    assert abs(angles.diff(people[0].facing, math.radians(facing_deg))) < math.radians(35)
+
+
 def test_two_people_side_by_side_are_two():
     people, _ = run(scenes.standing(2.5, 0.45, RED) + scenes.standing(2.5, -0.45, BLUE))
     assert sorted(round(p.y, 1) for p in people) == pytest.approx([-0.45, 0.45], abs=0.1)

@@ -43,11 +43,22 @@ detector therefore looks for what every person in view shows and furniture does 
    the shins (``legs_min``..``legs_max``) within ``facing_reach`` of the torso, in patches that come
    within ``facing_gap`` of its centre (the legs of a chair or a table 0.4-0.6 m away turned the
    facing 16-55 deg, or hid it, in a synthetic scene; the living room's dining chair 0.54 m from the
-   day's seat turned it 25 deg in florence_sim), less the mean of
-   the upper-body points, points the way the person faces; both means are of near sides seen
-   from one camera, so their offset toward the camera largely cancels. An offset shorter than
-   ``facing_min_offset`` says nothing (a seat or a table hides the legs, or they are tucked
-   under): ``facing`` stays None. A standing person's legs are under the torso: no facing.
+   day's seat turned it 25 deg in florence_sim), less the mean of the upper-body points, points the
+   way the person faces: both means are of near sides seen from one camera.
+   Whether the shins stand out from the torso at all is told from their centres, not their near
+   sides: a leg is narrower than a torso, so its near side lies nearer its centre, and a standing
+   person's legs under her torso read as shins 0.09-0.10 m beyond it, away from the camera
+   (standing people were given facings 5-22 deg off the line of sight, away from the robot, at
+   1.5-2.8 m, where the image cuts their heads off and the posture is unknown; bench/locator.py's
+   approach_me_map went round to their backs). So each run of image columns among the shin points
+   (split where more than ``FACING_COLUMN_GAP`` columns show none: one leg, both side by side, a
+   seated body's thighs and shins) is moved back along the line of sight by 3/8 of its own width,
+   as the torso is (4.), and when the mean of that lies less than ``facing_min_offset`` from the
+   torso's centre, ``facing`` stays None (a standing person's legs: 0.035 m at most in the
+   synthetic scenes at 1.5-3.2 m, against at least 0.11 m for a seated person's shins from any
+   side; a seat or a table hiding them, or legs tucked under). Its direction is not the facing:
+   seen from the side, one shin hides the other and the centre of the near one alone turned the
+   facing up to 30 deg toward the camera. A person seen standing gets no facing either.
 
 6. Close up, where none of this can work (nearer than about 1.1 m nothing above ``upper_min`` is in
    view), :func:`close_sightings` reports what stands where a tracked person is expected, with its
@@ -69,6 +80,8 @@ from user_tracker_ni import reid
 
 CENTRE_SHIFT = 0.375  # the body's centre beyond the mean of its visible points, in widths
 FACING_CELL = 0.05  # [m] grid on which the points at shin height connect into patches (legs, a chair's leg)
+FACING_COLUMN_GAP = 2  # [px, decimated] shin points this many empty columns apart are two legs (a standing
+#                        person's, 0.07 m apart: 2.5 columns at 3 m)
 TALL_MARGIN = 0.05  # [m] points this near max_height: taller than people (a door frame, a wall)
 
 
@@ -100,7 +113,7 @@ class DepthParams:
     legs_max: float = 0.42  # [m]
     facing_reach: float = 0.6  # [m] ... looked for this near the upper body's centre ...
     facing_gap: float = 0.3  # [m] ... in patches (connected on a 5 cm grid) that come this near it: not a chair's leg
-    facing_min_offset: float = 0.08  # [m] shins this far in front of the torso tell the facing
+    facing_min_offset: float = 0.08  # [m] shins whose centre is this far from the torso's tell the facing
     close_range: float = 1.4  # [m] a tracked person nearer the camera than this is looked for close up (0: never)
     close_min: float = 0.55  # [m] lowest point of a body seen close up (close_sightings; up to upper_min)
     close_radius: float = 0.35  # [m] how near the expected place its points lie
@@ -233,7 +246,8 @@ def detect(depth, camera, camera_pose, params, rgb=None):
             torso &= (z >= band[0]) & (z <= band[1])
             if np.count_nonzero(torso) >= p.min_points:
                 sig = reid.signature(colour[vv[torso], uu[torso]])
-        facing = None if posture == "standing" else _facing(pts[shins, :2], centroid, centre, p)
+        facing = None if posture == "standing" else _facing(pts[shins, :2], uu[shins], cam_xy, centroid, centre,
+                                                             stride / camera.fx, p)
         occluded = _occluded(d, vv[mine], uu[mine], p)
         people.append(PersonDetection(float(centre[0]), float(centre[1]), top, truncated, width, posture, count, sig,
                                       facing, occluded))
@@ -442,12 +456,14 @@ def _roundness(xy):
     return float(math.sqrt(max(np.linalg.eigvalsh(c)[0], 0.0)))
 
 
-def _facing(shins, upper_mean, centre, p):
+def _facing(shins, columns, cam_xy, upper_mean, centre, column_angle, p):
     """Which way [rad] a seated person faces from the points at shin height [N, 2] (all of the image's),
-    the mean of their upper-body points and their centre (module docstring, 5); None when it cannot
-    be told."""
+    their decimated image columns [N], the camera's place [2], the mean of the upper-body points,
+    the person's centre and the angle [rad] one decimated column spans (module docstring, 5); None
+    when it cannot be told."""
     d = np.hypot(shins[:, 0] - centre[0], shins[:, 1] - centre[1])
-    near, d = shins[d <= p.facing_reach], d[d <= p.facing_reach]
+    keep = d <= p.facing_reach
+    near, columns, d = shins[keep], columns[keep], d[keep]
     if len(near) < p.min_points:
         return None
     # the patches of her own legs, not a chair's or a table's legs beside her (8-connected 5 cm cells)
@@ -456,13 +472,32 @@ def _facing(shins, upper_mean, centre, p):
     occupied[ij[:, 0], ij[:, 1]] = True
     labels = ndimage.label(occupied, structure=np.ones((3, 3), dtype=bool))[0][ij[:, 0], ij[:, 1]]
     mine = np.isin(labels, np.unique(labels[d <= p.facing_gap]))
-    near = near[mine]
+    near, columns = near[mine], columns[mine]
     if len(near) < p.min_points:
         return None
-    offset = near.mean(axis=0) - upper_mean
-    if float(np.hypot(*offset)) < p.facing_min_offset:
+    stand_out = _leg_centre(near, columns, cam_xy, column_angle) - centre
+    if float(np.hypot(*stand_out)) < p.facing_min_offset:
         return None
+    offset = near.mean(axis=0) - upper_mean
     return float(math.atan2(offset[1], offset[0]))
+
+
+def _leg_centre(points, columns, cam_xy, column_angle):
+    """The mean [2] of ``points`` [N, 2] (near sides seen from ``cam_xy``), each run of image
+    ``columns`` among them moved back along its line of sight by CENTRE_SHIFT of its width (module
+    docstring, 5)."""
+    cols = np.unique(columns)
+    starts = cols[np.r_[True, np.diff(cols) > FACING_COLUMN_GAP]]
+    run = np.searchsorted(starts, columns, side="right")
+    rel = points - cam_xy
+    out = points.astype(np.float64)
+    for k in np.unique(run):
+        mine = run == k
+        mean = rel[mine].mean(axis=0)
+        distance = max(float(np.hypot(*mean)), 1e-6)
+        span = int(columns[mine].max() - columns[mine].min()) + 1
+        out[mine] += mean / distance * CENTRE_SHIFT * distance * span * column_angle
+    return out.mean(axis=0)
 
 
 def _torso_band(top, truncated, p):

@@ -80,7 +80,7 @@ KINECT = ParamTable(
     Param("kinect/facing_gap", float, DepthParams.facing_gap, "... in patches (connected on a 5 cm grid) that come "
           "this near it: not the legs of a chair or a table beside her", unit="m", gt=0),
     Param("kinect/facing_min_offset", float, DepthParams.facing_min_offset,
-          "shins this far in front of the torso tell which way a seated person faces", unit="m", gt=0),
+          "shins whose centre is this far from the torso's tell which way a seated person faces", unit="m", gt=0),
     Param("kinect/close_range", float, DepthParams.close_range,
           "a tracked person this near the camera and not detected is looked for close up, below the upper-body "
           "band, and kept when the colours there are theirs (0: never)", unit="m", ge=0),
