@@ -105,6 +105,23 @@ def test_a_user_facing_a_wall_is_approached_from_her_side_not_from_behind():
     assert ranked[0].y > user[1] - 0.2  # beside her, not south of her
 
 
+def test_when_her_front_was_not_reached_the_nearest_pose_not_behind_her_comes_first():
+    """A user facing west, the robot east of her (her back): her front tried (excluded). not_behind
+    keeps only the poses within side_limit of her facing, nearest the robot first: beside her, on
+    the robot's side of her front; nothing is left once they are all tried."""
+    user, robot, facing = (4.0, 4.0), (6.0, 4.2), math.pi
+    tried = [math.pi + math.radians(a) for a in (-45.0, 45.0)]
+    ranked = rank(user, robot, P, room(), exclude=tried, facing=facing, not_behind=True)
+    assert ranked and all(abs(c.offset) <= P.side_limit + 1e-9 for c in ranked)
+    assert abs(math.degrees(ranked[0].offset)) == pytest.approx(90.0)  # beside her: nearest the robot
+    assert ranked[0].y > user[1]  # on the robot's side (north of her, as the robot is)
+    # without it, the far side: the robot's side of her, behind her, once her front is all tried
+    everything = rank(user, robot, P, room(), exclude=[*tried, math.pi / 2, -math.pi / 2], facing=facing)
+    assert behind(user, (everything[0].x, everything[0].y), facing, P.side_limit)
+    assert not rank(user, robot, P, room(), exclude=[*tried, math.pi / 2, -math.pi / 2, math.pi], facing=facing,
+                    not_behind=True)
+
+
 def test_strangers_are_the_others_standing_still():
     # the user (track 0, 0.2 m from where she was), a visitor standing, a walker, a track without a position
     xy = np.array([[3.0, 2.4], [4.3, 4.9], [5.0, 3.0], [np.nan, np.nan]])

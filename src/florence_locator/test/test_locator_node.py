@@ -207,7 +207,8 @@ def system(ros_master, rospy_node, tf_buffer, publisher, tmp_path_factory):
                f"_tracker:={NS}/user_tracker_ni_node", "_settle_time:=0.1", "_look_time:=0.3", "_look_frames:=4",
                "_max_speed:=3.0", "_decel:=3.0"),
         rosrun(ros_master, "approach_me_map", "approach_me_map_node", *common,
-               "cmd_vel:=cmd_vel_mux/input/approach_me_map", "_align_speed:=0.25", "_front_timeout:=3.0"),
+               "cmd_vel:=cmd_vel_mux/input/approach_me_map", "_align_speed:=0.25", "_front_timeout:=3.0",
+               "_side_timeout:=3.0"),
     ]
     try:
         for name in ("florenceLocator/gotoUser", "florenceLocator/getStatus"):
@@ -359,10 +360,11 @@ def test_goto_user_drives_searches_and_approaches(system):
     assert (user.x, user.y) == pytest.approx(ALICE, abs=1e-3) and "detect_users" in user.message
 
 
-def test_a_seated_users_front_out_of_reach_gives_way_to_the_robots_side(system):
+def test_a_seated_users_front_out_of_reach_gives_way_to_beside_her_then_the_robots_side(system):
     """Alice faces away from the robot (north, the tracker says) and move_base never reaches a pose
-    in front of her: after approach_me_map's ~front_timeout (3 s here) the next trial is on the
-    robot's side, and gotoUser succeeds there."""
+    in front of her nor beside her: after approach_me_map's ~front_timeout (3 s here) the next trial
+    is beside her (not behind her), after ~side_timeout (3 s) on the robot's side, and gotoUser
+    succeeds there."""
     from florence_common_ros.mock_move_base import Reply
 
     mock, base, tracker, behaviour = system["mock"], system["base"], system["tracker"], system["behaviour"]
@@ -373,7 +375,7 @@ def test_a_seated_users_front_out_of_reach_gives_way_to_the_robots_side(system):
     wait_for(lambda: _call("getRobotPosRoom").room == "living_room", 10, what="the robot carried to the living room")
     assert _call("setUserPosXYPhi", *ALICE, 0.0).success
     n_goals, n_outcomes = len(mock.goals), len(mock.outcomes)
-    behaviour["reply"] = lambda x, y, yaw, frame: Reply("hang") if y > ALICE[1] else Reply("succeeded", 0.3)
+    behaviour["reply"] = lambda x, y, yaw, frame: Reply("hang") if y > ALICE[1] - 0.05 else Reply("succeeded", 0.3)
     try:
         assert _call("gotoUser").success
         done = _wait_status({"SUCCEEDED", "ABORTED", "PREEMPTED"}, 90, system)
@@ -382,11 +384,13 @@ def test_a_seated_users_front_out_of_reach_gives_way_to_the_robots_side(system):
         tracker.facings = {}
     assert done.status == "SUCCEEDED", done.message
     goals = mock.goals[n_goals:]
-    assert len(goals) == 2, goals  # no drive (the robot is in her room): her front, then the robot's side
+    assert len(goals) == 3, goals  # no drive (the robot is in her room): her front, beside her, the robot's side
     assert goals[0][1] > ALICE[1] + 0.2  # in front of her
-    assert goals[1][1] < ALICE[1] and math.hypot(goals[1][0] - ALICE[0], goals[1][1] - ALICE[1]) \
-        == pytest.approx(0.6, abs=1e-3)  # safe_distance + ~goal_standoff
-    assert mock.outcomes[n_outcomes:] == ["preempted", "succeeded"]  # the trial in front cancelled at its deadline
+    assert ALICE[1] - 1e-3 <= goals[1][1] <= ALICE[1] + 0.2  # beside her (her front tried), not behind
+    assert goals[2][1] < ALICE[1] - 0.2 and math.hypot(goals[2][0] - ALICE[0], goals[2][1] - ALICE[1]) \
+        == pytest.approx(0.6, abs=1e-3)  # behind her, on the robot's side; safe_distance + ~goal_standoff
+    # the trials in front and beside her cancelled at their deadlines
+    assert mock.outcomes[n_outcomes:] == ["preempted", "preempted", "succeeded"]
 
 
 def test_goto_user_in_the_same_room_skips_the_drive_and_nobody_found_aborts(system):

@@ -85,6 +85,7 @@ from user_tracker_ni.msg import TrackedUsers
 
 LOG = "approach_me_map: "
 TARGET_PERIOD = 0.5  # [s] between move_base/approach_target messages (move_base lets one lapse after 1.5 s)
+FRONT, BESIDE, ROBOT_SIDE = "front", "beside", "robot's side"  # the phases of the trials (_approach)
 _A, _L = ApproachParams(), AlignParams()
 PARAMS = ParamTable(
     Param("safe_distance", float, _A.safe_distance, "distance from the user's centre to the robot's at the end "
@@ -98,8 +99,10 @@ PARAMS = ParamTable(
     Param("use_facing", bool, True, "the front is the way the tracker says the user faces (a seated user's "
           "shins); false, or while it does not say: the robot's side"),
     Param("front_timeout", float, 45.0, "the trials ranked from her facing get this long in all (counted again "
-          "after a trial that somebody else stood in the way of); then the robot's "
-          "side (a corner seat whose front is tight), with one more trial if none is left", unit="s", gt=0),
+          "after a trial that somebody else stood in the way of); then a trial to the nearest pose not behind her "
+          "(a corner seat whose front is tight), with one more if none is left", unit="s", gt=0),
+    Param("side_timeout", float, 30.0, "that trial gets this long; then the robot's side, even behind her, with "
+          "one more trial if none is left", unit="s", gt=0),
     Param("facing_max_speed", float, 0.25, "a facing is used only while the user's track is slower than this "
           "(a walker's facing is her way, and a still person's track jitters so close up)", unit="m/s", gt=0),
     Param("pass_distance", float, 0.6, "a make_plan path that goes round the user nearer than this (move_base's "
@@ -357,7 +360,8 @@ class ApproachMeMapNode:
         if not server_ready(self.client):
             return "ABORTED", "move_base is not running"
         tried, notes = [], []
-        started, front_over, learnt = rospy.get_time(), False, False
+        started, learnt = rospy.get_time(), False
+        phase = FRONT  # then BESIDE (her front not reached in time), then ROBOT_SIDE
         with self.lock:
             self.met = []
         trial, limit = 0, p.trials
@@ -368,8 +372,10 @@ class ApproachMeMapNode:
             if robot is None:
                 return "ABORTED", f"no robot pose: {why}"
             with self.lock:
-                user, grid, facing = self.user, self.grid, None if front_over else self.facing
-                seated = self.seated and not front_over
+                user, grid, facing = self.user, self.grid, None if phase == ROBOT_SIDE else self.facing
+                seated = self.seated and phase == FRONT
+            if phase == BESIDE and facing is None:
+                phase = ROBOT_SIDE
             # move_base's goal ~goal_standoff beyond safe_distance (the last half metre drives the rest):
             # its people layer keeps plans 0.3 m + the inscribed radius (0.47 m) from the tracked centre of the
             # very user approached, and a goal at 0.5 m fell into that as her track moved a few cm (make demo:
@@ -380,7 +386,8 @@ class ApproachMeMapNode:
             goal = None
             for k, radius in enumerate(radii[:3]):
                 ring = dataclasses.replace(self.params, safe_distance=radius)
-                candidates = rank(user, robot[:2], ring, grid, exclude=tried, facing=facing, seated=seated)
+                candidates = rank(user, robot[:2], ring, grid, exclude=tried, facing=facing, seated=seated,
+                                  not_behind=phase == BESIDE)
                 if trial == 1 and k == 0:
                     self._publish_candidates(candidates)
                 goal, way = self._plannable(candidates, robot, beat, user)
@@ -389,12 +396,19 @@ class ApproachMeMapNode:
                         notes.append(f"trial {trial}: no pose {first:.2f} m from the user had a path, move_base "
                                      f"sent {radius:.2f} m out")
                     break
+            if goal is None and phase == BESIDE:  # no pose beside her has a way: the robot's side, this trial
+                notes.append(f"trial {trial}: no pose beside the user, not behind her, with a path")
+                phase, trial = ROBOT_SIDE, trial - 1
+                continue
             if goal is None:
                 notes.append(f"trial {trial}: no pose around ({user[0]:.2f}, {user[1]:.2f}) with a path"
                              + ("" if candidates else " (none free on the map)"))
                 break
             tried.append(goal.angle)
-            deadline = math.inf if facing is None else started + p.front_timeout
+            if facing is None:
+                deadline = math.inf
+            else:
+                deadline = started + p.front_timeout if phase == FRONT else rospy.get_time() + p.side_timeout
             with self.lock:
                 met = len(self.met)
             ok, why = self._drive(goal, user, beat, last=trial == limit, use_facing=facing is not None,
@@ -402,8 +416,8 @@ class ApproachMeMapNode:
             with self.lock:
                 if len(self.met) > met:  # somebody else in the way, not her front out of reach: a new budget
                     started = rospy.get_time()
-            front = (f"her facing {math.degrees(facing):.0f} deg" if facing is not None else
-                     "the robot's side, beside her" if seated else "the robot's side")
+            front = (f"her facing {math.degrees(facing):.0f} deg" + (", beside her" if phase == BESIDE else "")
+                     if facing is not None else "the robot's side, beside her" if seated else "the robot's side")
             notes.append(f"trial {trial} at {math.degrees(goal.offset):+.0f} deg from {front}: {why}")
             if ok:
                 return "SUCCEEDED", "; ".join(notes)
@@ -413,9 +427,9 @@ class ApproachMeMapNode:
                 # her facing came while the trial ran: the next ones are ranked from it, one more if none is left
                 learnt, limit, started = True, max(limit, trial + 1), rospy.get_time()
             if facing is not None and rospy.get_time() >= deadline:
-                # her front is out of reach (a corner seat, her knees, the tracker's facing off): the robot's
-                # side from now on, with one more trial if this was the last
-                front_over, limit = True, max(limit, trial + 1)
+                # her front is out of reach (a corner seat, her knees, the tracker's facing off): beside her,
+                # then the robot's side, each with one more trial if this was the last
+                phase, limit = (BESIDE if phase == FRONT else ROBOT_SIDE), max(limit, trial + 1)
         return "ABORTED", "; ".join(notes) or "no trial"
 
     def _others(self, user):
@@ -518,7 +532,8 @@ class ApproachMeMapNode:
                 now = rospy.get_time()
                 if now - started > p.goal_timeout or now > deadline:
                     ended = (f"move_base took longer than {p.goal_timeout:.0f} s" if now <= deadline else
-                             f"her front not reached within ~front_timeout ({p.front_timeout:.0f} s)")
+                             f"not reached within its time (~front_timeout {p.front_timeout:.0f} s, "
+                             f"~side_timeout {p.side_timeout:.0f} s)")
                     break
                 with self.lock:
                     waiting_for = self.waiting_for

@@ -124,12 +124,15 @@ class ObstacleGrid(Grid):
         return self.clearance_at(xy) >= radius
 
 
-def rank(user, robot, p, grid=None, exclude=(), facing=None, seated=False):
+def rank(user, robot, p, grid=None, exclude=(), facing=None, seated=False, not_behind=False):
     """Candidate poses around ``user`` (x, y) [m] for a robot at ``robot`` (x, y) [m], best first
     (module docstring). ``grid``: an ObstacleGrid (None: every pose is free); ``exclude``: angles
     [rad] around the user already tried (candidates nearer than p.trial_separation are left out);
     ``facing`` [rad]: which way the user faces, in the frame of ``user`` (None or not finite:
-    unknown, the robot's side is the front, or, ``seated``, beside her comes first)."""
+    unknown, the robot's side is the front, or, ``seated``, beside her comes first).
+    ``not_behind``, with her facing known: her front was not reached in time; only the poses not
+    behind her (within ``side_limit`` of her facing), all alike but for their room and the robot's
+    way to them (the nearest first)."""
     ux, uy = user
     known = facing is not None and math.isfinite(facing)
     front = facing if known else math.atan2(robot[1] - uy, robot[0] - ux)
@@ -151,7 +154,12 @@ def rank(user, robot, p, grid=None, exclude=(), facing=None, seated=False):
         if grid is not None and not grid.line_free(xy[k], (ux, uy), skip_near_b=p.user_radius):
             continue
         off = float(offsets[k])
-        cost = _beside_cost(abs(off), p) if seated and not known else _angle_cost(abs(off), p)
+        if known and not_behind:
+            if abs(off) > p.side_limit:
+                continue
+            cost = 0.0
+        else:
+            cost = _beside_cost(abs(off), p) if seated and not known else _angle_cost(abs(off), p)
         cost += 0.2 * max(0.0, 0.45 - min(clearance[k], 0.45)) / 0.2
         if off < 0:  # clockwise from the way the person faces: their right
             cost -= p.right_bonus
