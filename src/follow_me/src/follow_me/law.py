@@ -13,11 +13,12 @@ d is the distance to the person (with ``path_following``, along their trail wher
 corner the robot comes on to where it sees them again; :meth:`Follower._gap`), d* the desired
 following distance, theta the bearing of the point the robot steers to. The seed steered straight at
 the person; with ``path_following`` the robot steers along the person's trail instead (pure pursuit
-``lookahead`` m ahead on it), so that it goes through a doorway where the person went rather than
-across the wall's end; in the open, the trail and the straight line are one. v is scaled by
-cos(theta) (no driving on while facing away; turn first), clamped to the goal's limits, and both are
-limited by the acceleration limits. The feed-forward term (0 gives the seed's pure spring) removes
-the spring's lag behind a walking person (0.5 m behind at 0.5 m/s with k_distance 1).
+``lookahead`` m ahead on it, farther at speed: :meth:`Follower._lookahead`), so that it goes through a
+doorway where the person went rather than across the wall's end; in the open, the trail and the
+straight line are one. v is scaled by cos(theta) (no driving on while facing away; turn first),
+clamped to the goal's limits, and both are limited by the acceleration limits. The feed-forward term
+(0 gives the seed's pure spring) removes the spring's lag behind a walking person (0.5 m behind at
+0.5 m/s with k_distance 1).
 
 A person unseen for ``lost_grace`` s is searched for: the robot turns toward where they were last
 seen, drives there along their trail (unless held up for SEARCH_PATIENCE s), then
@@ -59,7 +60,9 @@ GAINS = ParamTable(
     Param("max_ang_acc", float, 3.0, "largest change of the turn rate per second", unit="rad/s^2", gt=0, le=10),
     Param("path_following", bool, True, "steer along the person's trail (through doorways, around corners) "
           "instead of straight at them"),
-    Param("lookahead", float, 0.7, "how far ahead on the trail the robot steers to", unit="m", gt=0, le=3),
+    Param("lookahead", float, 0.7, "how far ahead on the trail the robot steers to ...", unit="m", gt=0, le=3),
+    Param("lookahead_time", float, 2.0, "... or, when farther, how far the robot drives in this long at its speed "
+          "(0.5 m/s: 1 m)", unit="s", ge=0, le=5),
     Param("search_speed", float, 0.4, "forward speed while driving to where the person was last seen",
           unit="m/s", gt=0, le=0.5),
     Param("search_turn_rate", float, 0.6, "turn rate while looking for the person", unit="rad/s", gt=0, le=2),
@@ -143,7 +146,7 @@ class Follower:
     def _steer_point(self, robot, goal_xy, lookahead=None):
         """The point (fixed frame) to steer to on the way to ``goal_xy`` along the trail, ``lookahead``
         [m] ahead on it (default: the gains')."""
-        lookahead = self.gains.lookahead if lookahead is None else lookahead
+        lookahead = self._lookahead() if lookahead is None else lookahead
         if not self.gains.path_following or not self.trail:
             return goal_xy
         pts = np.asarray(self.trail)
@@ -163,6 +166,17 @@ class Follower:
         while k > start and not self._passes(robot, pts[k]):
             k -= 1  # nearer on the trail: the straight way to the farther point grazes what the robot sees
         return tuple(pts[k])
+
+    def _lookahead(self):
+        """[m] How far ahead on the trail the robot steers to: ``lookahead``, or farther at speed
+        (``lookahead_time`` at the last command's speed), as adaptive pure pursuit does. At 0.5 m/s
+        behind a walker through a doorway and round a corner (bench/enablers.py's walk, offline with
+        commands 0.5 s late, about what florence_sim's whole chain shows) 0.7 m kept the robot close to
+        the corner and it lost ground turning there: distance error RMS 0.44 m, 0.25 m with 1.0 m; at an
+        elderly person's 0.3 m/s, 0.7 m still (a longer one took the robot nearer than 0.8 of the
+        desired distance as she turned behind the bedroom's door wall)."""
+        g = self.gains
+        return max(g.lookahead, g.lookahead_time * abs(self.v))
 
     def _passes(self, robot, xy):
         """Whether the straight way from the robot to ``xy`` keeps ``clearance`` [m] from every obstacle
@@ -209,7 +223,7 @@ class Follower:
         if obstacles is not None and len(obstacles):
             o = np.asarray(obstacles, dtype=float).reshape(-1, 2)
             near = np.hypot(o[:, 0] - robot[0], o[:, 1] - robot[1])
-            keep = (near <= g.lookahead + self.clearance + 0.1) & (
+            keep = (near <= self._lookahead() + self.clearance + 0.1) & (
                 np.hypot(o[:, 0] - person.xy[0], o[:, 1] - person.xy[1]) > OWN_POINTS)
             if np.any(keep):
                 # the clearance a straight way must keep: or, already nearer, no nearer than the robot is now
