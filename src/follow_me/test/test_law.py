@@ -167,15 +167,16 @@ def test_round_the_corridor_corner_at_top_speed_it_keeps_up(delay, rms):
     and of the corridor: the robot cannot make up ground it loses, so it must not lose it turning. Steering
     0.7 m ahead on her trail it stayed near the corner and turned there (RMS of the distance error 0.27 m
     with commands 0.3 s late, 0.44 m 0.5 s late, about what florence_sim's whole chain shows); the lookahead
-    growing with the speed (1 m at 0.5 m/s) keeps it to 0.19 and 0.25 m, and more than 0.2 m from the
-    jambs."""
+    growing with the speed (lookahead_time 2 s, off by default: 1 m at 0.5 m/s) keeps it to 0.19 and
+    0.25 m, and more than 0.2 m from the jambs."""
     def wall(y, x0, x1):
         return [(x, y) for x in np.arange(x0, x1 + 1e-9, 0.05)]
 
     walls = np.array(wall(5.45, 0.0, 2.0) + wall(5.45, 2.9, 5.0) + wall(5.55, 0.0, 2.0) + wall(5.55, 2.9, 5.0)
                      + wall(6.8, 0.0, 1.0) + wall(6.8, 1.9, 8.0))
     path = [(1.2, 3.8), (2.45, 4.9), (2.45, 6.15), (6.0, 6.15)]
-    rows = simulate(path, 0.5, 28.0, start=(1.2, 2.8, math.pi / 2), turn_acc=1.0, delay=delay, obstacles=walls)
+    rows = simulate(path, 0.5, 28.0, start=(1.2, 2.8, math.pi / 2), turn_acc=1.0, delay=delay, obstacles=walls,
+                    g=gains(lookahead_time=2.0))
     d = np.hypot(rows[:, 4] - rows[:, 1], rows[:, 5] - rows[:, 2])
     error = math.sqrt(np.mean((d - 1.0) ** 2))
     gap = np.min(np.hypot(rows[:, 1:2] - walls[None, :, 0], rows[:, 2:3] - walls[None, :, 1])) - 0.18

@@ -61,8 +61,8 @@ GAINS = ParamTable(
     Param("path_following", bool, True, "steer along the person's trail (through doorways, around corners) "
           "instead of straight at them"),
     Param("lookahead", float, 0.7, "how far ahead on the trail the robot steers to ...", unit="m", gt=0, le=3),
-    Param("lookahead_time", float, 2.0, "... or, when farther, how far the robot drives in this long at its speed "
-          "(0.5 m/s: 1 m)", unit="s", ge=0, le=5),
+    Param("lookahead_time", float, 0.0, "... or, when farther, how far the robot drives in this long at its speed "
+          "(2 s at 0.5 m/s: 1 m; 0: off)", unit="s", ge=0, le=5),
     Param("search_speed", float, 0.4, "forward speed while driving to where the person was last seen",
           unit="m/s", gt=0, le=0.5),
     Param("search_turn_rate", float, 0.6, "turn rate while looking for the person", unit="rad/s", gt=0, le=2),
@@ -171,10 +171,13 @@ class Follower:
         """[m] How far ahead on the trail the robot steers to: ``lookahead``, or farther at speed
         (``lookahead_time`` at the last command's speed), as adaptive pure pursuit does. At 0.5 m/s
         behind a walker through a doorway and round a corner (bench/enablers.py's walk, offline with
-        commands 0.5 s late, about what florence_sim's whole chain shows) 0.7 m kept the robot close to
-        the corner and it lost ground turning there: distance error RMS 0.44 m, 0.25 m with 1.0 m; at an
-        elderly person's 0.3 m/s, 0.7 m still (a longer one took the robot nearer than 0.8 of the
-        desired distance as she turned behind the bedroom's door wall)."""
+        commands 0.5 s late) 0.7 m kept the robot close to the corner and it lost ground turning
+        there: distance error RMS 0.44 m, 0.25 m with 1.0 m (``lookahead_time`` 2 s); at an elderly
+        person's 0.3 m/s, 0.7 m still (a longer one took the robot nearer than 0.8 of the desired
+        distance as she turned behind the bedroom's door wall). Off by default: in florence_sim (the
+        bench, 30 Nov) 2 s took the RMS from 0.46-0.59 m to 0.40-0.48 m, but the tracker then dropped
+        the person 1 m ahead soon after she stopped, and follow_me searched 1.5 s for her (the time the
+        right person was kept 94.4-95.0 %, target 98 %)."""
         g = self.gains
         return max(g.lookahead, g.lookahead_time * abs(self.v))
 
