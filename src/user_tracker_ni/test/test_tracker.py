@@ -563,6 +563,37 @@ def seated_then_close(tracker, rng, posture="sitting", seconds=2.0):
     return np.array(out)
 
 
+@pytest.mark.parametrize("seat_hold, returns, kept", [(10.0, True, True), (10.0, False, False), (0.0, True, False)])
+def test_a_seated_person_is_kept_while_the_laser_shows_something_at_her_seat(seat_hold, returns, kept):
+    """Close to a seated person the laser sees her lower legs as one block, no pair of legs, and the Kinect
+    loses her whenever the robot turns: without hold_seated her track went within timeout (1 s). With
+    returns at her seat it is kept, not moved, until seat_hold since the Kinect last saw her; without
+    them, or with seat_hold 0, it goes."""
+    tracker, rng = Tracker(TrackerParams(seat_hold=seat_hold)), np.random.default_rng(3)
+    t = 0.0
+    for k in range(int(2 * RATE)):  # seated at (2, 1), the Kinect and her shins in front of her
+        t = k / RATE
+        det = kinect(2.0, 1.0, RED, rng)
+        tracker.update(t, [Detection(det.x, det.y, KINECT, 0.08, RED, posture="sitting")], KINECT)
+        tracker.update(t + 0.5 / RATE, [laser(1.85, 1.0, rng, free=False)], LASER)
+    (track,) = tracker.tracks
+    assert track.seat is not None
+    block = np.column_stack([np.full(8, 1.88), np.linspace(0.9, 1.1, 8)])  # her legs' near side, one block
+    last_kinect, alive = t, []
+    for k in range(1, int(14 * RATE)):  # no detection at all for 14 s: scans with or without returns there
+        now = t + k / RATE
+        tracker.hold_seated(now, block if returns else np.zeros((0, 2)))
+        tracker.update(now, [], LASER)
+        alive.append((now - last_kinect, len(tracker.tracks)))
+    alive = np.array(alive)
+    if kept:
+        assert np.all(alive[alive[:, 0] <= seat_hold - 0.1, 1] == 1)  # kept up to seat_hold ...
+        assert np.all(alive[alive[:, 0] >= seat_hold + 1.2, 1] == 0)  # ... and no longer
+        assert track.position == pytest.approx((2.0, 1.0), abs=0.05)  # where the Kinect placed her
+    else:
+        assert np.all(alive[alive[:, 0] >= 1.2, 1] == 0)
+
+
 def test_a_seated_person_stays_where_the_kinect_placed_her_when_only_her_shins_are_seen():
     """The laser sees a seated person's shins in front of her: it keeps her track alive but does not
     drag it onto her legs (the robot coming to her would end that much nearer). Standing, it moves

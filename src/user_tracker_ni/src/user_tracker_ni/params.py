@@ -187,6 +187,9 @@ TRACKER = ParamTable(
     Param("tracker/seated_reach", float, TrackerParams.seated_reach,
           "... and the laser's detections (her shins) or close sightings within this of the seat keep her "
           "track there without moving it (0: off; less than tracker/laser_gate)", unit="m", ge=0),
+    Param("tracker/seat_hold", float, TrackerParams.seat_hold,
+          "a seated user's track the Kinect updated within this long is kept while the laser shows something "
+          "within tracker/seated_reach of her seat (close up her legs are no pair of legs; 0: off)", unit="s", ge=0),
 )
 
 FREE = ParamTable(

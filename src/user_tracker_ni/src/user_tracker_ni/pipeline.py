@@ -165,6 +165,7 @@ class Pipeline:
             coast = self.tracker.params.coast_limit
             seen = laser_legs.in_view([tr.output(coast) for tr in confirmed], angle_min, angle_max, pose)
             self.tracker.out_of_view(t, [tr for tr, s in zip(confirmed, seen, strict=True) if not s])
+        self.tracker.hold_seated(t, xy[valid])  # a seated person's legs are one block, no pair of legs
         legs = laser_legs.find_legs(xy, valid, sensor, self.p.legs)
         legs = legs[~self._on_structure(legs, fixed_in_map)]  # a wall's end is no leg
         leg_free = self.free.in_free_space(legs)
