@@ -83,7 +83,7 @@ def test_no_facing_without_the_shins_in_front_or_for_a_standing_person():
 def test_a_standing_person_close_up_has_no_facing(distance, lateral):
     """Nearer than ~2.9 m the image cuts a standing person's head off (posture unknown): her legs
     under her torso are narrower than it, so their near sides lie 0.09-0.10 m beyond its near side,
-    and that read as shins: facings 5-22 deg off the line of sight, away from the camera."""
+    and that read as shins: facings away from the camera, about along its line of sight."""
     (person,), _ = run(scenes.standing(distance, lateral, RED))
     assert person.posture == "unknown"
     assert person.facing is None, math.degrees(person.facing)

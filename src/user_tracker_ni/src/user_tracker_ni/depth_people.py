@@ -48,8 +48,8 @@ detector therefore looks for what every person in view shows and furniture does 
    Whether the shins stand out from the torso at all is told from their centres, not their near
    sides: a leg is narrower than a torso, so its near side lies nearer its centre, and a standing
    person's legs under her torso read as shins 0.09-0.10 m beyond it, away from the camera
-   (standing people were given facings 5-22 deg off the line of sight, away from the robot, at
-   1.5-2.8 m, where the image cuts their heads off and the posture is unknown; bench/locator.py's
+   (standing people were given facings away from the camera, about along its line of sight, at
+   1.2-2.8 m, where the image cuts their heads off and the posture is unknown; bench/locator.py's
    approach_me_map went round to their backs). So each run of image columns among the shin points
    (split where more than ``FACING_COLUMN_GAP`` columns show none: one leg, both side by side, a
    seated body's thighs and shins) is moved back along the line of sight by 3/8 of its own width,
