@@ -491,12 +491,11 @@ def _leg_centre(points, columns, cam_xy, column_angle):
     run = np.searchsorted(starts, columns, side="right")
     rel = points - cam_xy
     out = points.astype(np.float64)
-    for k in np.unique(run):
+    for k in np.unique(run):  # a few runs (legs) per person
         mine = run == k
-        mean = rel[mine].mean(axis=0)
-        distance = max(float(np.hypot(*mean)), 1e-6)
         span = int(columns[mine].max() - columns[mine].min()) + 1
-        out[mine] += mean / distance * CENTRE_SHIFT * distance * span * column_angle
+        # back along the run's line of sight by CENTRE_SHIFT x its width (its range x span x column_angle)
+        out[mine] += rel[mine].mean(axis=0) * (CENTRE_SHIFT * span * column_angle)
     return out.mean(axis=0)
 
 
