@@ -82,9 +82,11 @@ def node(ros_master, rospy_node):
     client = SimpleActionClient("approach_me", ApproachMeAction)
     try:
         assert client.wait_for_server(rospy.Duration(60)), f"no approach_me server:\n{proc.output()}"
-        wait_for(lambda: all(s.get_num_connections() for s in subs) and users.get_num_connections()
-                 and scans.get_num_connections(), 30, what="connections")
+        # (the obstacle source /am/scan is subscribed only while a goal runs)
+        wait_for(lambda: all(s.get_num_connections() for s in subs) and users.get_num_connections(), 30,
+                 what="connections")
         time.sleep(1.0)  # a fresh action client's first goal can be lost while connections settle
+        people["scans"] = scans
         yield client, cmds, states, people
     finally:
         done.set()
@@ -115,10 +117,15 @@ def test_bad_goals_nobody_near_and_a_pose_in_a_wall_are_aborted_at_once(node):
 def test_drives_gives_feedback_and_cancel_stops_at_once(node):
     from actionlib_msgs.msg import GoalStatus
 
-    client, cmds, states, _ = node
+    client, cmds, states, people = node
+    scans = people["scans"]
+    # no goal (the last test's ended): approach_me takes nothing from its obstacle sources (the publisher
+    # counts a connection until its next message finds it closed)
+    wait_for(lambda: scans.get_num_connections() == 0, 10, what="no subscriber to the obstacle source between goals")
     feedback = []
     client.send_goal(goal(p2r=math.pi / 2), feedback_cb=lambda fb: feedback.append((fb.x, fb.y)))
     wait_for(lambda: len(feedback) >= 5 and cmds and cmds[-1][2] != 0.0, 10, what="commands")
+    assert scans.get_num_connections() == 1  # subscribed for the goal
     assert feedback[-1] == pytest.approx((1.5, 0.0), abs=0.01)
     # p2r = +90 degrees: counter-clockwise at the person from the line person -> robot (south), i.e.
     # east of the person: ahead-right of the robot, which turns right (REP 103: w < 0)
@@ -131,6 +138,7 @@ def test_drives_gives_feedback_and_cancel_stops_at_once(node):
     assert next(t for t, v, w in cmds if t > t_cancel and (v, w) == (0.0, 0.0)) - t_cancel < 0.5
     state, _, result = finish(client)
     assert state == GoalStatus.PREEMPTED and (result.x, result.y) == pytest.approx((1.5, 0.0), abs=0.01)
+    wait_for(lambda: scans.get_num_connections() == 0, 10, what="the obstacle source unsubscribed after the goal")
 
 
 @pytest.mark.parametrize("event, reason", [("vanish", "person lost"), ("walk", "the person moved away"),

@@ -20,7 +20,7 @@ ROS Subscribers:
     scan (sensor_msgs/LaserScan): the Hokuyo; close up, a leg pair where the person is confirms them
         (user_tracker_ni.laser_legs, ~closeup_range).
     <topic of each source> (sensor_msgs/LaserScan, or a depth image with its camera_info): obstacles
-        (/scan; /camera/depth/image, of which 2 frames a second are taken).
+        (/scan; /camera/depth/image, of which 2 frames a second are taken), only while a goal runs.
 
 ROS Publishers:
     cmd_vel (geometry_msgs/Twist): while a goal runs (the launch files remap it to
@@ -104,8 +104,9 @@ class ApproachMeNode(PersonBehaviour):
         self.last_step = None  # (Step, robot pose, person xy) of the last control cycle
         self.goal_pub = rospy.Publisher("~goal_pose", PoseStamped, queue_size=1, latch=True)
         # a depth source at 2 frames a second: its 3-D memory costs the monitor 4-6 ms a frame, and here
-        # the points only check the pose a goal asks for
-        self.obstacles = ScanSources(specs, "odom", self.tf_buffer, log_prefix=LOG, depth_period=0.5) if specs else None
+        # the points only check the pose a goal asks for; subscribed during goals only (PersonBehaviour)
+        self.obstacles = ScanSources(specs, "odom", self.tf_buffer, log_prefix=LOG, depth_period=0.5,
+                                     subscribe=False) if specs else None
         self.leg_params = laser_legs.LegParams()
         self.closeup = None  # (ROS time [s], leg pairs [P, 2] in the tracker's frame) of the last scan
         self.closeup_confirmed = 0
@@ -116,8 +117,8 @@ class ApproachMeNode(PersonBehaviour):
     def _on_scan(self, msg):
         """Leg pairs in the laser's scan, in the tracker's frame (close-up confirmation of the person)."""
         frame = self.frame
-        if frame is None or not msg.header.frame_id:
-            return
+        if frame is None or not self.commanding or not msg.header.frame_id:
+            return  # (no goal: nothing to confirm)
         m, why = lookup_matrix(self.tf_buffer, frame, msg.header.frame_id.lstrip("/"), msg.header.stamp, 0.3)
         if m is None:
             rospy.logdebug(LOG + "scan skipped: %s", why)

@@ -33,6 +33,8 @@ from florence_common_ros.node import read_params
 from florence_common_ros.reconfigure import Reconfigure
 from florence_common_ros.transforms import lookup_matrix
 
+SOURCES_WAIT = 1.0  # [s] of wall time a goal waits for the first scan or image of each obstacle source
+
 
 @dataclass(frozen=True)
 class Snapshot:
@@ -142,6 +144,9 @@ class PersonBehaviour(Behaviour):
         self.snap_seen = -math.inf  # [s] arrival of the last tracker message taken
         self.commanding = False
         self.status = None  # (text, v, w) of the last control cycle
+        # the subclass's obstacle sources (collision_monitor.sources.ScanSources made with subscribe=False),
+        # or None: subscribed from the start of a goal (attend) to its end (halt)
+        self.obstacles = None
         self.cmd = rospy.Publisher("cmd_vel", Twist, queue_size=1)
         self.state_pub = rospy.Publisher("~state", String, queue_size=1, latch=True)
         self.state_pub.publish(String("idle"))
@@ -174,8 +179,15 @@ class PersonBehaviour(Behaviour):
     def attend(self, goal, make_controller, **person_args):
         """Pick the tracked person nearest the goal's (x, y) and make the controller
         (``make_controller(person, robot_pose, frame)``, in the tracker's frame; or a reason text to
-        refuse); None, or why not."""
+        refuse); None, or why not. The obstacle sources are subscribed first, and their first scan or
+        image waited for up to SOURCES_WAIT (the controller may check the goal against them)."""
         p = self.params
+        if self.obstacles is not None:
+            self.obstacles.resume()
+            missing = self.obstacles.wait_all(SOURCES_WAIT)
+            if missing:
+                rospy.logwarn(self.log + "nothing from %s within %.1f s of the goal: going on without",
+                              ", ".join(missing), SOURCES_WAIT)
         person, snap, robot, why = self.people.attend((goal.x, goal.y), p.base_frame, p.acquire_radius,
                                                       p.tracker_timeout, p.acquire_wait,
                                                       reacquire_radius=p.reacquire_radius, **person_args)
@@ -236,6 +248,8 @@ class PersonBehaviour(Behaviour):
             if was:
                 self.publish(0.0, 0.0)
                 self.state_pub.publish(String("idle"))
+        if self.obstacles is not None:
+            self.obstacles.pause()
 
     # --- diagnostics -------------------------------------------------------------------------------
     def diagnose(self, stat):

@@ -21,7 +21,8 @@ robot ahead (the person, a wall) is left to the law and the monitor.
 ROS Subscribers:
     tracked_users (user_tracker_ni/TrackedUsers): people with persistent ids and positions (the
         launch files remap it to filtered_tracked_users).
-    <topic of each source> (sensor_msgs/LaserScan, or a depth image with its camera_info): obstacles.
+    <topic of each source> (sensor_msgs/LaserScan, or a depth image with its camera_info): obstacles,
+        only while a goal runs.
 
 ROS Publishers:
     cmd_vel (geometry_msgs/Twist): while a goal runs (the launch files remap it to
@@ -91,7 +92,9 @@ class FollowMeNode(PersonBehaviour):
         self.last_step = None
         specs = parse_sources(p.sources) if p.sources is not None and p.steer_limit > 0 else []
         # a depth source at 2 frames a second, as approach_me takes it: its points only steer
-        self.obstacles = ScanSources(specs, "odom", self.tf_buffer, log_prefix=LOG, depth_period=0.5) if specs else None
+        # subscribed during goals only (PersonBehaviour)
+        self.obstacles = ScanSources(specs, "odom", self.tf_buffer, log_prefix=LOG, depth_period=0.5,
+                                     subscribe=False) if specs else None
         self.monitor = MonitorConfig(robot_radius=p.robot_radius, stop_distance=p.stop_distance)
         self.steered = 0  # control cycles whose command was steered clear
         self.start()
