@@ -58,20 +58,6 @@ def test_limits_of_the_goal_and_of_acceleration():
     assert one_step((0.0, 0.0, 0.0), (-2.0, 0.01)).v == pytest.approx(0.0, abs=1e-3)
 
 
-def test_no_backing_off_a_person_a_few_centimetres_inside_the_distance():
-    """The tracker's centre of a person standing 1 m away wanders by some centimetres; the spring
-    backing away from that made the robot reverse as she set off (florence_sim, bench/enablers.py's
-    walk: 0.3 s at -0.08 m/s, then 0.15 m further behind her than with the deadband). Farther inside,
-    or coming at the robot, she is backed away from."""
-    g = gains(max_lin_acc=3.0, max_ang_acc=10.0)
-    assert one_step((0.0, 0.0, 0.0), (0.95, 0.0), g=g).v == pytest.approx(0.0)  # within backing_deadband 0.1
-    assert one_step((0.0, 0.0, 0.0), (0.95, 0.0), velocity=(0.3, 0.0), g=g).v > 0.1  # setting off: on at once
-    assert one_step((0.0, 0.0, 0.0), (0.95, 0.0), velocity=(-0.3, 0.0), g=g).v < -0.1  # coming at the robot
-    assert one_step((0.0, 0.0, 0.0), (0.85, 0.0), g=g).v < 0  # beyond the deadband: back
-    assert one_step((0.0, 0.0, 0.0), (0.95, 0.0), g=gains(max_lin_acc=3.0, max_ang_acc=10.0,
-                                                          backing_deadband=0.0)).v < 0  # the seed's spring
-
-
 def simulate(path, speed, seconds, start=(0.0, 0.0, 0.0), g=None, pause=None, limits=LIMITS, turn_acc=4.0, delay=0.0,
              obstacles=None):
     """Person walking ``path`` at ``speed`` (standing at its end; ``pause``: (t0, t1) standing),

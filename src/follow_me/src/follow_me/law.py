@@ -9,8 +9,6 @@ The law (seed 4.1.2, with REP 103 signs):
     v = k_distance (d - d*) + k_feedforward * (the person's speed away from the robot)
     w = k_bearing * theta
 
-(d - d* taken as 0 when the person is nearer than d* by less than ``backing_deadband``.)
-
 d is the distance to the person (with ``path_following``, along their trail where it bends: round a
 corner the robot comes on to where it sees them again; :meth:`Follower._gap`), d* the desired
 following distance, theta the bearing of the point the robot steers to. The seed steered straight at
@@ -57,10 +55,6 @@ GAINS = ParamTable(
           unit="1/s", ge=0, le=10),
     Param("k_feedforward", float, 1.0, "share of the person's own speed away from the robot added to the forward "
           "speed (0: the seed's pure spring)", ge=0, le=1.5),
-    Param("backing_deadband", float, 0.1, "the spring backs the robot away only from a person nearer than the "
-          "desired distance by more than this (the tracker's centre of a person standing at it wanders by some "
-          "centimetres: the robot backed away as she set off; one coming at the robot is backed from at once "
-          "by the feed-forward)", unit="m", ge=0, le=0.5),
     Param("max_lin_acc", float, 1.0, "largest change of the forward speed per second (velocity_filter's limit)",
           unit="m/s^2", gt=0, le=3),
     Param("max_ang_acc", float, 3.0, "largest change of the turn rate per second", unit="rad/s^2", gt=0, le=10),
@@ -251,10 +245,7 @@ class Follower:
             ux, uy = (expected[0] - robot[0]) / max(distance, 1e-6), (expected[1] - robot[1]) / max(distance, 1e-6)
             away = person.velocity[0] * ux + person.velocity[1] * uy  # [m/s] the person's speed away from the robot
             gap = self._gap(robot, expected, distance)
-            error = gap - lim.desired_distance
-            if -g.backing_deadband < error < 0.0:
-                error = 0.0
-            v = g.k_distance * error + g.k_feedforward * away
+            v = g.k_distance * (gap - lim.desired_distance) + g.k_feedforward * away
             v *= max(0.0, math.cos(theta))
             v, w = self._command(v, g.k_bearing * theta)
             return Step(v, w, FOLLOWING, (float(local[0]), float(local[1])), distance,
