@@ -106,8 +106,16 @@ def test_depth_matches_the_scene_within_quantisation(scene):
     assert np.array_equal(np.isfinite(depth), seen)
     focal = scene["truth"].scene["depth_focal"]
     error = np.abs(depth[seen] - rendered[seen])
-    allowed = 0.5 * kinect.quantisation_step(rendered[seen], focal=focal) + 1e-4
-    assert (error <= allowed).all(), f"worst {error.max():.4f} m where {allowed[error.argmax()]:.4f} m is allowed"
+    # half a raw step, exactly: the raw code is 1/z-linear, so beyond the true depth half a step reaches
+    # 0.5 q / (1 - 0.5 q / z), q = z^2 / (8 b f) the first-order step (0.6 % more at 4 m: 0.13 mm, more than
+    # the float32 margin; a render 0.14 mm different put a pixel there)
+    z = rendered[seen].astype(np.float64)
+    half = 0.5 * kinect.quantisation_step(z, focal=focal)
+    allowed = half / (1.0 - half / z) + 1e-4
+    worst = int(np.argmax(error - allowed))
+    assert (error <= allowed).all(), (f"{np.count_nonzero(error > allowed)} pixels beyond half a step; worst "
+                                      f"{error[worst]:.5f} m at {z[worst]:.3f} m where {allowed[worst]:.5f} m is "
+                                      "allowed")
     assert error.max() > 0.002  # the 11 bits do quantise: at 3-4 m a step is 3-5 cm
     info = scene["probe"].wait_for("/camera_raw/depth/camera_info")
     assert list(info.K) == pytest.approx([focal, 0, 319.5, 0, focal, 239.5, 0, 0, 1])
