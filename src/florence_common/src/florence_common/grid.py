@@ -14,15 +14,7 @@ import math
 import numpy as np
 from scipy import ndimage
 
-_KERNELS = {}  # numba kernels, compiled on first use (importing numba costs the many users of this module time)
-
-
-def _kernel(name):
-    if name not in _KERNELS:
-        import numba
-
-        _KERNELS[name] = numba.njit(cache=True)(globals()[name])
-    return _KERNELS[name]
+from florence_common.jit import lazy_njit
 
 
 def _sight_matrix(blocked, ox, oy, c, s, resolution, starts, ends, skip_end, max_length, step):
@@ -50,6 +42,9 @@ def _sight_matrix(blocked, ox, oy, c, s, resolution, starts, ends, skip_end, max
                         break
             out[i, j] = clear
     return out
+
+
+_SIGHT_MATRIX = lazy_njit(_sight_matrix)  # importing numba costs the many users of this module time
 
 
 class Grid:
@@ -113,9 +108,8 @@ class Grid:
         starts = np.ascontiguousarray(np.asarray(starts, dtype=float).reshape(-1, 2))
         ends = np.ascontiguousarray(np.asarray(ends, dtype=float).reshape(-1, 2))
         ox, oy, oyaw = self.origin
-        kernel = _kernel("_sight_matrix")
-        return kernel(self.blocked, ox, oy, math.cos(oyaw), math.sin(oyaw), self.resolution, starts, ends,
-                      float(skip_end), float(max_length), self.resolution / 2)
+        return _SIGHT_MATRIX(self.blocked, ox, oy, math.cos(oyaw), math.sin(oyaw), self.resolution, starts, ends,
+                             float(skip_end), float(max_length), self.resolution / 2)
 
     def with_obstacles(self, other):
         """A grid like this one (its class, cells and origin) whose cells are blocked too where

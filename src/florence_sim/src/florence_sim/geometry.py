@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from florence_common.angles import wrap
+from florence_common.jit import lazy_njit
 
 BIG = np.float32(1e9)
 
@@ -255,7 +256,7 @@ class Scene:
         box_cap = np.where(o64[2] > zb[:, 1], zb[:, 1], zb[:, 0])  # the top seen from above, else the bottom
         zc = self.cyl_z[cyls]
         cyl_cap = np.where(o64[2] > zc[:, 1], zc[:, 1], np.where(o64[2] < zc[:, 0], zc[:, 0], np.nan))
-        _kernel("_first_hits")(
+        _FIRST_HITS(
             o64, np.asarray(d, dtype=np.float64), best, owner,
             self.face_a[faces], self.face_b[faces], self.face_z[faces], self.face_owner[faces].astype(np.int32),
             self.box_center[boxes], np.cos(self.box_yaw[boxes]), np.sin(self.box_yaw[boxes]), self.box_half[boxes],
@@ -284,20 +285,9 @@ class Scene:
         return np.nonzero(near & (self.cyl_z[:, 0] <= z_hi) & (self.cyl_z[:, 1] >= z_lo))[0]
 
 
-_KERNELS = {}  # numba kernels, compiled (or loaded from numba's cache) on first use
-
-
-def _kernel(name):
-    if name not in _KERNELS:
-        import numba
-
-        _KERNELS[name] = numba.njit(cache=True, nogil=True)(globals()[name])
-    return _KERNELS[name]
-
-
 def _first_hits(o, d, best, owner, fa, fb, fz, fown, bc, bcos, bsin, bhalf, bcap, bidx, cc, cr, cz, ccap, cown):
-    """Per ray (a numba kernel; float64 arithmetic, ``best`` float32): the nearest hit ``t`` among
-    vertical faces ``fa[j] -> fb[j]`` between heights ``fz[j]`` (owner ``fown[j]``), horizontal box caps
+    """Per ray (a numba kernel, :data:`_FIRST_HITS`; float64 arithmetic, ``best`` float32): the nearest hit
+    ``t`` among vertical faces ``fa[j] -> fb[j]`` between heights ``fz[j]`` (owner ``fown[j]``), horizontal box caps
     at height ``bcap[j]`` (centre ``bc``, yaw cosine and sine, half sizes; owner ``bidx[j]``) and
     cylinders (centre ``cc``, radius ``cr``, heights ``cz``: their sides from outside and their cap at
     ``ccap[j]``, NaN for none; owner ``cown[j]``), each taken only when nearer than ``best[i]``, which
@@ -348,6 +338,9 @@ def _first_hits(o, d, best, owner, fa, fb, fz, fown, bc, bcos, bsin, bhalf, bcap
                 top, who = t, cown[j]
         best[i] = top
         owner[i] = who
+
+
+_FIRST_HITS = lazy_njit(_first_hits, nogil=True)
 
 
 def _segment_distance(p, a, b):
