@@ -16,7 +16,9 @@ the person; with ``path_following`` the robot steers along the person's trail in
 ``lookahead`` m ahead on it, farther at speed: :meth:`Follower._lookahead`), so that it goes through a
 doorway where the person went rather than across the wall's end; in the open, the trail and the
 straight line are one. v is scaled by cos(theta) (no driving on while facing away; turn first),
-clamped to the goal's limits, and both are limited by the acceleration limits. The feed-forward term
+clamped to the goal's limits, and both are limited by the acceleration limits; w is also capped to what
+stops the turn where theta comes to 0 (``brake_turns``: velocity_filter slews the turn rate at 1 rad/s^2 and
+commands arrive ``turn_latency`` late; unbraked, the robot overshot its heading). The feed-forward term
 (0 gives the seed's pure spring) removes the spring's lag behind a walking person (0.5 m behind at
 0.5 m/s with k_distance 1).
 
@@ -31,6 +33,7 @@ from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
+from collision_monitor.monitor import braking_speed
 from velocity_filter.limiter import clamp, step_towards
 
 from florence_common import pose as pose2d
@@ -51,18 +54,22 @@ NEAR_SHARE = 0.6  # the distance along the trail counts only beyond this share o
 GAINS = ParamTable(
     Param("k_distance", float, 1.2, "forward speed per metre the person is farther than the desired distance (the "
           "seed's k_v)", unit="1/s", ge=0, le=5),
-    Param("k_bearing", float, 1.5, "turn rate per radian of bearing of the point steered to (the seed's k_w)",
+    Param("k_bearing", float, 2.0, "turn rate per radian of bearing of the point steered to (the seed's k_w)",
           unit="1/s", ge=0, le=10),
     Param("k_feedforward", float, 1.0, "share of the person's own speed away from the robot added to the forward "
           "speed (0: the seed's pure spring)", ge=0, le=1.5),
     Param("max_lin_acc", float, 1.0, "largest change of the forward speed per second (velocity_filter's limit)",
           unit="m/s^2", gt=0, le=3),
-    Param("max_ang_acc", float, 3.0, "largest change of the turn rate per second", unit="rad/s^2", gt=0, le=10),
+    Param("max_ang_acc", float, 1.0, "largest change of the turn rate per second", unit="rad/s^2", gt=0, le=10),
     Param("path_following", bool, True, "steer along the person's trail (through doorways, around corners) "
           "instead of straight at them"),
     Param("lookahead", float, 0.7, "how far ahead on the trail the robot steers to ...", unit="m", gt=0, le=3),
-    Param("lookahead_time", float, 0.0, "... or, when farther, how far the robot drives in this long at its speed "
+    Param("lookahead_time", float, 2.0, "... or, when farther, how far the robot drives in this long at its speed "
           "(2 s at 0.5 m/s: 1 m; 0: off)", unit="s", ge=0, le=5),
+    Param("brake_turns", bool, True, "turn no faster than the turn can be stopped where the bearing comes to 0, "
+          "braking at max_ang_acc after turn_latency: no overshoot past the heading steered to"),
+    Param("turn_latency", float, 0.2, "the time a command takes to reach the wheels (follow_me, the multiplexer, the "
+          "collision monitor, velocity_filter, the base), for brake_turns", unit="s", ge=0, le=1),
     Param("search_speed", float, 0.4, "forward speed while driving to where the person was last seen",
           unit="m/s", gt=0, le=0.5),
     Param("search_turn_rate", float, 0.6, "turn rate while looking for the person", unit="rad/s", gt=0, le=2),
@@ -75,6 +82,8 @@ TRAIL_LENGTH = 200  # points kept (20 m)
 LOOP_RADIUS, LOOP_EXCESS = 0.25, 0.15  # [m] a person back this near a place they passed, on a way this much
 # longer than the straight line, closed a loop
 OWN_POINTS = 0.45  # [m] obstacle points this near the person are theirs (legs, body)
+PAST_POINTS, PAST_SECONDS = 0.3, 1.5  # [m], [s] ... and so are points this near where they were this recently: a
+# sensor's view of them a moment old (the Kinect's fake laser at 2 Hz, the scans' own lag) lies on their trail
 
 
 @dataclass
@@ -104,7 +113,7 @@ class Follower:
     ``rate`` [Hz] of :meth:`step`; ``lost_grace`` and ``lost_timeout`` [s]; ``clearance`` [m]: what
     the straight way to the point steered to keeps from the obstacle points :meth:`step` is given."""
 
-    def __init__(self, gains, limits, rate, lost_grace=0.5, lost_timeout=10.0, search_standoff=0.4, clearance=0.4):
+    def __init__(self, gains, limits, rate, lost_grace=0.5, lost_timeout=10.0, search_standoff=0.4, clearance=0.3):
         self.gains = gains
         self.limits = limits
         self.dt = 1.0 / rate
@@ -120,6 +129,7 @@ class Follower:
         self.obstacles = None  # [N, 2] obstacle points near the robot (fixed frame), for this cycle (step)
         self._required = clearance  # [m] this cycle's: what a straight way keeps from them (_passes)
         self.clearance = clearance
+        self._recent = deque()  # (t, x, y) of the person over the last PAST_SECONDS
 
     # --- the trail -----------------------------------------------------------------------------
     def _record(self, xy):
@@ -171,13 +181,10 @@ class Follower:
         """[m] How far ahead on the trail the robot steers to: ``lookahead``, or farther at speed
         (``lookahead_time`` at the last command's speed), as adaptive pure pursuit does. At 0.5 m/s
         behind a walker through a doorway and round a corner (bench/enablers.py's walk, offline with
-        commands 0.5 s late) 0.7 m kept the robot close to the corner and it lost ground turning
-        there: distance error RMS 0.44 m, 0.25 m with 1.0 m (``lookahead_time`` 2 s); at an elderly
+        commands 0.3 s late) 0.7 m kept the robot close to the corner and it lost ground turning
+        there: distance error RMS 0.26 m, 0.14 m with 1.0 m (``lookahead_time`` 2 s); at an elderly
         person's 0.3 m/s, 0.7 m still (a longer one took the robot nearer than 0.8 of the desired
-        distance as she turned behind the bedroom's door wall). Off by default: in florence_sim (the
-        bench, 30 Nov) 2 s took the RMS from 0.46-0.59 m to 0.40-0.48 m, but the tracker then dropped
-        the person 1 m ahead soon after she stopped, and follow_me searched 1.5 s for her (the time the
-        right person was kept 94.4-95.0 %, target 98 %)."""
+        distance as she turned behind the bedroom's door wall)."""
         g = self.gains
         return max(g.lookahead, g.lookahead_time * abs(self.v))
 
@@ -223,8 +230,14 @@ class Follower:
         ``obstacles`` [N, 2] what the robot sees (fixed frame; None: nothing known)."""
         g, lim = self.gains, self.limits
         self.obstacles = None
+        self._recent.append((t, float(person.xy[0]), float(person.xy[1])))
+        while self._recent and self._recent[0][0] < t - PAST_SECONDS:
+            self._recent.popleft()
         if obstacles is not None and len(obstacles):
             o = np.asarray(obstacles, dtype=float).reshape(-1, 2)
+            past = np.asarray(self._recent)[:, 1:]
+            o = o[np.min(np.hypot(o[:, None, 0] - past[None, :, 0], o[:, None, 1] - past[None, :, 1]), axis=1)
+                  > PAST_POINTS]
             near = np.hypot(o[:, 0] - robot[0], o[:, 1] - robot[1])
             keep = (near <= self._lookahead() + self.clearance + 0.1) & (
                 np.hypot(o[:, 0] - person.xy[0], o[:, 1] - person.xy[1]) > OWN_POINTS)
@@ -247,7 +260,10 @@ class Follower:
             gap = self._gap(robot, expected, distance)
             v = g.k_distance * (gap - lim.desired_distance) + g.k_feedforward * away
             v *= max(0.0, math.cos(theta))
-            v, w = self._command(v, g.k_bearing * theta)
+            w = g.k_bearing * theta
+            if g.brake_turns:
+                w = math.copysign(min(abs(w), braking_speed(abs(theta), g.max_ang_acc, g.turn_latency)), theta)
+            v, w = self._command(v, w)
             return Step(v, w, FOLLOWING, (float(local[0]), float(local[1])), distance,
                         f"following {person.pid} at {distance:.2f} m")
         if unseen > self.lost_timeout:

@@ -76,7 +76,7 @@ PARAMS = ParamTable(
     Param("steer_limit", float, 0.6, "largest change of the law's turn rate that steers a command clear of "
           "something beside the robot, and the turn rate on the spot when no arc passes (0: never)", unit="rad/s",
           ge=0, le=1.5),
-    Param("trail_clearance", float, 0.4, "with ~sources: the straight way to the point steered to on the person's "
+    Param("trail_clearance", float, 0.3, "with ~sources: the straight way to the point steered to on the person's "
           "trail keeps this from what the robot sees (its centre to a point; or no nearer than it is), else it steers "
           "to a nearer point on the trail (through a doorway's middle, as the person went, not past its jamb)",
           unit="m", gt=0, le=1.0),
