@@ -309,6 +309,21 @@ def test_a_track_the_kinect_has_in_clear_view_but_does_not_see_is_dropped():
             assert len(tracker.published()) == 1
         t += 0.1
     assert tracker.published() == []
+    assert tracker.dropped == {"in the Kinect's clear view, not detected": 1}  # the node's diagnostics say why
+
+
+def test_a_confirmed_track_no_sensor_updates_is_dropped_and_counted():
+    rng = np.random.default_rng(15)
+    tracker = Tracker(TrackerParams(timeout=1.0))
+    t = 0.0
+    for _ in range(10):
+        tracker.update(t, [kinect(2.0, 0.0, RED, rng)], KINECT)
+        t += 0.1
+    assert len(tracker.published()) == 1
+    for _ in range(12):
+        tracker.update(t, [], LASER)
+        t += 0.1
+    assert tracker.published() == [] and tracker.dropped == {"no update": 1}
 
 
 def test_out_of_clear_view_the_laser_keeps_the_track():

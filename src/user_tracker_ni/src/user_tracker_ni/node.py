@@ -401,6 +401,8 @@ class UserTrackerNode:
             stat.add(f"detections: {sensor}", count)
         for reason, count in sorted(self.pipeline.rejected.items()):
             stat.add(f"clusters rejected: {reason}", count)
+        for reason, count in sorted(self.pipeline.tracker.dropped.items()):
+            stat.add(f"users dropped: {reason}", count)
         return stat
 
 

@@ -90,6 +90,7 @@ standing person's top off (posture "unknown") and her legs under her torso read 
 backs); a seated person seen only close up keeps hers. Otherwise unknown (None).
 """
 
+import collections
 import itertools
 import math
 from dataclasses import dataclass, field
@@ -285,6 +286,7 @@ class Tracker:
         self.gallery = reid.Gallery(self.params.reid_threshold)
         self.tracks = []
         self._ni_ids = itertools.count(1)
+        self.dropped = collections.Counter()  # confirmed tracks dropped, by reason (diagnostics)
 
     # --- public -----------------------------------------------------------------------------------
     def reset(self):
@@ -358,6 +360,8 @@ class Tracker:
                 track.unseen_since = t
             if track.unseen_since is None or t - track.unseen_since < self.params.unseen_timeout:
                 kept.append(track)
+            else:
+                self.dropped["in the Kinect's clear view, not detected"] += 1
         self.tracks = kept
 
     def hold_seated(self, t, points):
@@ -583,4 +587,6 @@ class Tracker:
             if fresh and not failed and not track.superseded:
                 kept.append(track)
                 self._maybe_confirm(track, t)
+            elif track.confirmed and not fresh:
+                self.dropped["no update"] += 1
         self.tracks = [tr for tr in kept if not tr.superseded]
