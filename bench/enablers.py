@@ -79,6 +79,7 @@ def summary(follows, approaches, latency_ms, judge):
             "kept_fraction": float(np.mean([f["kept_fraction"] for f in runs])),
             "collisions": int(sum(f["collisions"] for f in runs)),
             "goals_still_active": sum(f["state"] == "ACTIVE" for f in runs),
+            "tracker_drops": [f["tracker_drops"] for f in runs],
         }
     ok = [a for a in approaches if a["state"] == "SUCCEEDED"]
     out["approach"] = {
@@ -137,7 +138,8 @@ def main():
             print(f"follow {k + 1} at {speed} m/s: RMS {result['rms_error_m']:.3f} m (a perfect follower: {ideal}), "
                   f"mean {result['mean_distance_m']:.2f} m, least {result['min_distance_m']:.2f} m, kept "
                   f"{result['kept_fraction']:.1%}, "
-                  f"{result['collisions']} contacts, {result['state']}", flush=True)
+                  f"{result['collisions']} contacts, {result['state']}; "
+                  f"tracker drops {result['tracker_drops'] or 'none'}", flush=True)
         scene = nav_metrics.load_scene()
         for k in range(args.approaches):
             place = enablers_metrics.random_approach(scene, rng)

@@ -19,6 +19,7 @@ import numpy as np
 import rosgraph
 import rospy
 from actionlib_msgs.msg import GoalStatus
+from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import Twist
 from std_msgs.msg import String, UInt32
 
@@ -30,6 +31,8 @@ from florence_eval.people_session import PeopleSession, _registered
 TELEOP = "/cmd_vel_mux/input/teleop"
 START_TOLERANCE = 0.05  # [m] a follow trial's person sets off once the robot stands this near the distance
 IDEAL_DELAYS = (0.0, 0.3, 0.6)  # [s] a perfect follower seeing the person this late: its RMS error beside the robot's
+DROPPED = "users dropped: "  # user_tracker_ni's /diagnostics keys, by reason
+DIAGNOSTICS_WAIT = 1.5  # [s] user_tracker_ni's /diagnostics come every second: a trial's drops are read this later
 STATE_NAMES = {v: k for k, v in vars(GoalStatus).items() if isinstance(v, int) and k.isupper()}
 NODES = ("/florence_sim", "/collision_monitor", "/velocity_filter_node", "/user_tracker_ni_node", "/follow_me_node",
          "/approach_me_node")
@@ -75,6 +78,7 @@ class EnablersSession(PeopleSession):
         self.states = {"follow_me": [], "approach_me": []}  # (t, text)
         self.commands = {"mux": [], "monitor": [], "filter": []}  # (t [sim s], wall [s], v, w)
         self.feedback = []  # (t, action, x, y) in the robot frame
+        self.tracker_drops = {}  # reason -> users user_tracker_ni dropped so far (its /diagnostics)
         self.follow_client = SimpleActionClient("follow_me", FollowMeAction)
         self.approach_client = SimpleActionClient("approach_me", ApproachMeAction)
         self.subs += [
@@ -88,6 +92,7 @@ class EnablersSession(PeopleSession):
             rospy.Subscriber("/cmd_vel", Twist, self._on_command, callback_args="monitor", queue_size=100,
                              tcp_nodelay=True),
             rospy.Subscriber("/filtered_cmd_vel", Twist, self._on_command, callback_args="filter", queue_size=100),
+            rospy.Subscriber("/diagnostics", DiagnosticArray, self._on_diagnostics, queue_size=20),
         ]
 
     # --- recording ---------------------------------------------------------------------------------
@@ -102,6 +107,19 @@ class EnablersSession(PeopleSession):
     def _on_state(self, msg, name):
         with self.lock:
             self.states[name].append((self.sim_now(), msg.data))
+
+    def _on_diagnostics(self, msg):
+        for status in msg.status:
+            if status.name.startswith("user_tracker") and status.name.endswith(": Tracking"):
+                drops = {v.key[len(DROPPED):]: int(v.value) for v in status.values if v.key.startswith(DROPPED)}
+                with self.lock:
+                    self.tracker_drops = drops
+
+    def drops_since(self, before):
+        """{reason: users the tracker dropped} since its counts were ``before`` (self.tracker_drops then)."""
+        with self.lock:
+            now = dict(self.tracker_drops)
+        return {k: n - before.get(k, 0) for k, n in now.items() if n > before.get(k, 0)}
 
     def _on_command(self, msg, where):
         wall = time.perf_counter()
@@ -253,7 +271,8 @@ class EnablersSession(PeopleSession):
         robot stands within START_TOLERANCE of ``desired`` behind them (at most ``close_in`` s), the
         person walks ``path`` once at ``speed`` [m/s]; ended when the robot settled within 0.2 m of
         ``desired`` behind them after they arrived (at most ``settle`` s later). The goal is left
-        running. Returns the measures (enablers_metrics.following, from the walk's start; a fixed 2 s
+        running. Returns the measures, the users user_tracker_ni dropped meanwhile by reason (its
+        /diagnostics) (enablers_metrics.following, from the walk's start; a fixed 2 s
         left the robot 0.11-0.14 m short of settled, a lag the walk at its top speed never made up),
         the distance at the walk's start, the goal's state, the collisions and the tracks; and the RMS
         error a perfect follower would have had, seeing the person IDEAL_DELAYS late
@@ -269,6 +288,8 @@ class EnablersSession(PeopleSession):
                           and self.still()) or self.sim_now() - start > close_in,
                  20 * close_in + 60, what="the robot closing in behind the person")
         start_distance = math.dist(self.pose()[:2], self.person(pid))
+        with self.lock:
+            drops = dict(self.tracker_drops)
         self.set_person(pid, path=[list(p) for p in path], speed=speed, mode="once", shirt=shirt)
         walk = self.sim_now()
         self.wait_sim(sum(math.dist(a, b) for a, b in itertools.pairwise(path)) / speed)
@@ -277,6 +298,7 @@ class EnablersSession(PeopleSession):
                  or self.sim_now() - arrived > settle, 20 * settle + 60, what="the robot settling behind")
         self.wait_still(timeout=60)
         end = self.sim_now()
+        self.wait_sim(DIAGNOSTICS_WAIT)
         robot_log, person_log = self.truth_log(walk), self.person_log(pid, walk)
         result = enablers_metrics.following(robot_log, person_log, self.feedback_log("follow_me", walk),
                                             self.states_log("follow_me", t0), desired, walk, end)
@@ -287,6 +309,7 @@ class EnablersSession(PeopleSession):
                 "state": STATE_NAMES.get(self.follow_client.get_state()),
                 "text": self.follow_client.get_goal_status_text(), "collisions": self.collisions - collisions,
                 "final_distance_m": math.dist(self.pose()[:2], self.person(pid)), "walk_s": arrived - walk,
+                "tracker_drops": self.drops_since(drops),
                 "robot_track": robot_log[robot_log[:, 0] <= end][::5].round(3).tolist(),
                 "person_track": person_log[person_log[:, 0] <= end][::5].round(3).tolist()}
 
