@@ -312,13 +312,18 @@ def test_a_track_the_kinect_has_in_clear_view_but_does_not_see_is_dropped():
     assert tracker.dropped == {"in the Kinect's clear view, not detected": 1}  # the node's diagnostics say why
 
 
-def test_a_confirmed_track_no_sensor_updates_is_dropped_and_counted():
-    rng = np.random.default_rng(15)
-    tracker = Tracker(TrackerParams(timeout=1.0))
+def _seen_by_the_kinect(tracker, rng, frames=10):
+    """A person at (2, 0) in ``frames`` Kinect frames 0.1 s apart; returns the time after them."""
     t = 0.0
-    for _ in range(10):
+    for _ in range(frames):
         tracker.update(t, [kinect(2.0, 0.0, RED, rng)], KINECT)
         t += 0.1
+    return t
+
+
+def test_a_confirmed_track_no_sensor_updates_is_dropped_and_counted():
+    tracker = Tracker(TrackerParams(timeout=1.0))
+    t = _seen_by_the_kinect(tracker, np.random.default_rng(15))
     assert len(tracker.published()) == 1
     for _ in range(12):
         tracker.update(t, [], LASER)
@@ -329,10 +334,7 @@ def test_a_confirmed_track_no_sensor_updates_is_dropped_and_counted():
 def test_out_of_clear_view_the_laser_keeps_the_track():
     rng = np.random.default_rng(13)
     tracker = Tracker(TrackerParams(unseen_timeout=1.0))
-    t = 0.0
-    for _ in range(10):
-        tracker.update(t, [kinect(2.0, 0.0, RED, rng)], KINECT)
-        t += 0.1
+    t = _seen_by_the_kinect(tracker, rng)
     for _ in range(30):
         tracker.update(t, [laser(2.0, 0.0, rng)], LASER)
         tracker.update(t, [], KINECT)
