@@ -99,7 +99,7 @@ def monitor(ros_master, rospy_node):
     pubs = {"scan": rospy.Publisher("/test_dm/scan", LaserScan, queue_size=10),
             "image": rospy.Publisher("/test_dm/depth/image", Image, queue_size=2),
             "info": rospy.Publisher("/test_dm/depth/camera_info", CameraInfo, queue_size=2)}
-    feed = {"kind": "32FC1", "info": False}
+    feed = {"kind": "32FC1", "info": False, "age": 0.0}  # age [s]: the images' stamps that much before now
     done = threading.Event()
 
     def feeder():
@@ -108,7 +108,7 @@ def monitor(ros_master, rospy_node):
             pubs["scan"].publish(empty_scan(now))
             if feed["info"]:
                 pubs["info"].publish(camera_info(now))
-            pubs["image"].publish(depth_image(now, feed["kind"]))
+            pubs["image"].publish(depth_image(now - rospy.Duration.from_sec(feed["age"]), feed["kind"]))
             time.sleep(0.1)
 
     thread = threading.Thread(target=feeder, daemon=True)
@@ -206,4 +206,25 @@ def test_forget_drops_the_remembered_points(monitor):
         assert state.state in ("clear", "blind") and "stop distance" not in state.reason, state
     finally:
         feed["kind"] = "32FC1"
+    wait_for(lambda: send(cmd, states, 0.3, 0.0).state == "slow", 15, what="the wall back")
+
+
+def test_an_image_taken_before_forget_is_not_used(monitor):
+    """An image on its way while the robot was carried shows where it was: after ~forget, images stamped
+    before it do not bring the wall back; the first taken after it does."""
+    from std_srvs.srv import Trigger
+
+    rospy, cmd, states, feed, _ = monitor
+    feed["info"] = True
+    feed["age"] = 1.5  # taken 1.5 s before they arrive (the source's timeout is 1 s: by wall time it is not silent)
+    try:
+        wait_for(lambda: send(cmd, states, 0.3, 0.0).state == "slow", 15, what="the wall")
+        assert rospy.ServiceProxy("/depth_monitor/forget", Trigger)().success
+        forgot = time.monotonic()
+        time.sleep(0.6)  # 6 images since, each stamped before the forget
+        state = send(cmd, states, 0.3, 0.0)
+        assert time.monotonic() - forgot < 1.4, "too slow to tell"
+        assert state.state in ("clear", "blind") and "stop distance" not in state.reason, state
+    finally:
+        feed["age"] = 0.0
     wait_for(lambda: send(cmd, states, 0.3, 0.0).state == "slow", 15, what="the wall back")

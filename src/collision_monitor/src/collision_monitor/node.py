@@ -17,7 +17,7 @@ ROS Subscribers:
 ROS Services:
     ~forget (std_srvs/Trigger): drop every remembered obstacle point (the robot was carried:
         odometry did not move, the world did; florence_sim's scenario tests carry it between tests).
-        What the sensors see comes back with their next scan or image.
+        What the sensors see comes back with their next scan or image taken after the call.
 
 ROS Publishers:
     cmd_vel (geometry_msgs/Twist): each command as judged, at once (velocity_filter's input); and,
