@@ -235,15 +235,16 @@ class Follower:
             self._recent.popleft()
         if obstacles is not None and len(obstacles):
             o = np.asarray(obstacles, dtype=float).reshape(-1, 2)
-            past = np.asarray(self._recent)[:, 1:]
-            o = o[np.min(np.hypot(o[:, None, 0] - past[None, :, 0], o[:, None, 1] - past[None, :, 1]), axis=1)
-                  > PAST_POINTS]
             near = np.hypot(o[:, 0] - robot[0], o[:, 1] - robot[1])
             keep = (near <= self._lookahead() + self.clearance + 0.1) & (
                 np.hypot(o[:, 0] - person.xy[0], o[:, 1] - person.xy[1]) > OWN_POINTS)
-            if np.any(keep):
+            o, near = o[keep], near[keep]  # the few points in reach, before the distances to her recent places
+            past = np.asarray(self._recent)[:, 1:]
+            hers = np.min(np.hypot(o[:, None, 0] - past[None, :, 0], o[:, None, 1] - past[None, :, 1]), axis=1,
+                          initial=np.inf) <= PAST_POINTS
+            if not np.all(hers):
                 # the clearance a straight way must keep: or, already nearer, no nearer than the robot is now
-                self.obstacles, self._required = o[keep], min(self.clearance, float(np.min(near[keep])))
+                self.obstacles, self._required = o[~hers], min(self.clearance, float(np.min(near[~hers])))
         unseen = person.unseen_for(t)
         expected = person.expected(t)
         local = pose2d.transform_points(pose2d.inverse(robot), [expected])[0]
