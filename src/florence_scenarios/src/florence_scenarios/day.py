@@ -355,6 +355,18 @@ class Day:
             time.sleep(0.1)
         return None
 
+    def _tracks_seen(self):
+        """What the tracker and its filter said last, and how long ago, with the user's true place
+        in the robot's frame: why no track was taken."""
+        now, robot, user = self.s.sim_now(), self.s.robot(), self.user()
+        her = pose2d.transform_points(pose2d.inverse(robot), [user[:2]])[0]
+        with self.s.lock:
+            last = {"tracker": self.s.tracks[-1][0] if self.s.tracks else None,
+                    "filter": self.s.filtered_tracks[-1][0] if self.s.filtered_tracks else None}
+        ages = ", ".join(f"{k} {now - t:.1f} s ago" if t is not None else f"{k} never" for k, t in last.items())
+        return (f"tracks {self.s.latest_tracks(filtered=False)} (odom), filtered {self.s.latest_tracks()}; "
+                f"last messages: {ages}; the user at ({her[0]:.2f}, {her[1]:.2f}) in base_link (ground truth)")
+
     def call_quiet(self, service, *args):
         return self.s.call(service, *args)
 
@@ -373,7 +385,8 @@ class Day:
             goal_xy = self._user_track_in_base((known.x, known.y), 0.7, 8.0)
             if goal_xy is None:
                 st.outcome = "no goal"
-                self.check("follow_me: the user tracked as she set off", False, f"tracks {self.s.latest_tracks()}")
+                st.data["judged_from"] = self.s.sim_now()  # no goal, no driving: the approach's end is not held here
+                self.check("follow_me: the user tracked as she set off", False, self._tracks_seen())
                 return
             from follow_me.msg import FollowMeGoal
 
