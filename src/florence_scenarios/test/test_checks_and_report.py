@@ -9,7 +9,7 @@ import pytest
 from florence_scenarios.checks import Checks
 from florence_scenarios.tf_report import FrameLink, check_conventions
 
-from florence_scenarios import judge, report
+from florence_scenarios import day, judge, report
 
 pytestmark = pytest.mark.unit
 
@@ -138,3 +138,14 @@ def test_report_names_failed_checks(tmp_path):
     assert not passed
     assert "1 of 1 checks FAILED" in text and "The day: FAILED: gotoUser: SUCCEEDED" in text
     assert not (tmp_path / "paths.png").exists()
+
+
+def test_not_following_gives_the_spans_follow_me_did_something_else():
+    states = [(1.0, "following 3 at 1.00 m"), (4.0, "searching for 3, unseen 0.3 s"),
+              (4.5, "searching for 3, unseen 0.8 s"), (6.0, "following 3 at 1.40 m"),
+              (9.0, "searching for 3, unseen 0.2 s")]
+    assert day.not_following(states, 2.0, 10.0) == [(4.0, 6.0, "searching for 3, unseen 0.3 s"),
+                                                      (9.0, 10.0, "searching for 3, unseen 0.2 s")]
+    assert day.not_following(states, 4.2, 5.0) == [(4.2, 5.0, "searching for 3, unseen 0.3 s")]  # held from before
+    assert day.not_following(states, 6.5, 8.0) == []
+    assert day.not_following([], 0.0, 1.0) == []

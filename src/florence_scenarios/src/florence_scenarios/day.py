@@ -95,6 +95,22 @@ def walk_path(start):
             [2.35, 5.9], [1.5, 6.5], [1.45, 7.2], [2.2, 7.45], [3.9, 7.45], list(BEDROOM_SEAT[:2])]
 
 
+def not_following(states, since, until):
+    """[(start, end, text)] [s] of the spans within [since, until] in which follow_me's state (rows
+    (t, text) in time order; the latest before ``since`` holds at ``since``) did not say
+    "following", with the text that began each: what it did instead, and how long."""
+    before = [(since, text) for t, text in states if t <= since][-1:]
+    rows = before + [(t, text) for t, text in states if since < t < until] + [(until, "following")]
+    spans, start = [], None
+    for t, text in rows:
+        if not text.startswith("following") and start is None:
+            start = (t, text)
+        elif text.startswith("following") and start is not None:
+            spans.append((start[0], t, start[1]))
+            start = None
+    return spans
+
+
 def people_file(path):
     """The day's people file: the user seated in the living room, the visitor standing in its corner."""
     people = {"people": [
@@ -416,6 +432,8 @@ class Day:
             track, people = self.s.track(walk), self.s.people_log(walk)
             t, d = judge.distance_series(track, judge.person_rows(people, USER))
             fb, states = self.s.follow_log(walk)
+            for since, until, text in not_following(states, goal_t, arrived):
+                self.log(f"follow_me not following from {since - self.t0:.1f} to {until - self.t0:.1f} s: {text}")
             measures = enablers_metrics.following(track[:, :4], judge.person_rows(people, USER), fb, states,
                                                   FOLLOW_DISTANCE, goal_t, arrived)
             st.outcome = f"{state_before_cancel} until cancelled"
