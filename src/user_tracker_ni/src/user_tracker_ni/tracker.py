@@ -226,7 +226,7 @@ class Track:
     kinect_hits: int = 0
     laser_hits: int = 0
     free_hits: int = 0  # laser detections in free floor
-    recent_free: collections.deque = field(default_factory=collections.deque)  # free or not, latest laser hits
+    recent_free: collections.deque = field(default_factory=collections.deque)  # free or not, latest laser hits (bounded)
     kinect_frames: int = 0  # Kinect frames since it started (while tentative)
     laser_frames: int = 0  # scans since it started (while tentative)
     travelled: float = 0.0  # [m] largest distance from the start
@@ -462,7 +462,8 @@ class Tracker:
     def _start(self, det, t, source):
         kf = ConstantVelocity(det.x, det.y, t, pos_std=max(det.std, det.across_std or 0.0), q=self.params.process_noise)
         track = Track(kf, source, t, t, (det.x, det.y), kinect_frames=int(source == KINECT),
-                      laser_frames=int(source == LASER))
+                      laser_frames=int(source == LASER),
+                      recent_free=collections.deque(maxlen=self.params.laser_free_window))
         self._record(track, det, t, source)
         self.tracks.append(track)
         self._maybe_confirm(track, t)
@@ -542,8 +543,6 @@ class Tracker:
             track.hit_frames = track.laser_frames
             track.free_hits += int(bool(det.free))
             track.recent_free.append(bool(det.free))
-            while len(track.recent_free) > self.params.laser_free_window:
-                track.recent_free.popleft()
 
     def _maybe_confirm(self, track, t):
         p = self.params
@@ -632,6 +631,8 @@ class Tracker:
         this way still never lay in free floor."""
         p = self.params
         self._lost = [(at, old) for at, old in self._lost if t - at <= p.laser_stitch_time]
+        if not self._lost:
+            return
         for track in self.tracks:
             if (not self._lost or track.confirmed or track.stitched or track.origin != LASER
                     or t - track.created > p.laser_stitch_time):
@@ -648,8 +649,6 @@ class Tracker:
             track.travelled = max(track.travelled, old.travelled, float(np.hypot(x - old.start[0], y - old.start[1])))
             track.laser_hits += old.laser_hits
             track.free_hits += old.free_hits
-            track.recent_free.extendleft(reversed(old.recent_free))
-            while len(track.recent_free) > p.laser_free_window:
-                track.recent_free.popleft()
+            track.recent_free = collections.deque([*old.recent_free, *track.recent_free], maxlen=p.laser_free_window)
             track.laser_frames += old.hit_frames
             self._maybe_confirm(track, t)
