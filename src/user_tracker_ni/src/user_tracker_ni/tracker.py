@@ -226,7 +226,7 @@ class Track:
     kinect_hits: int = 0
     laser_hits: int = 0
     free_hits: int = 0  # laser detections in free floor
-    recent_free: collections.deque = field(default_factory=collections.deque)  # free or not, latest laser hits (bounded)
+    recent_free: collections.deque = field(default_factory=collections.deque)  # free or not: the latest laser hits
     kinect_frames: int = 0  # Kinect frames since it started (while tentative)
     laser_frames: int = 0  # scans since it started (while tentative)
     travelled: float = 0.0  # [m] largest distance from the start
