@@ -355,17 +355,20 @@ class TestApartment:
     def test_pause_and_step(self, apartment_topics, rospy_node):
         from std_srvs.srv import Empty
 
-        from florence_sim.srv import Step
+        from florence_sim.srv import Now, Step
 
         rospy_node.wait_for_service("/florence_sim/pause", 30.0)
+        now = rospy_node.ServiceProxy("/florence_sim/now", Now)
         rospy_node.ServiceProxy("/florence_sim/pause", Empty)()
         try:
             t0 = _sim_now(apartment_topics)
             wait_for(lambda: _sim_now(apartment_topics) == t0, 5.0)  # clock stops
             time.sleep(0.3)
             frozen = _sim_now(apartment_topics)
+            assert now().sim_time == pytest.approx(frozen, abs=1e-6)  # ~now reads the simulation's time
             res = rospy_node.ServiceProxy("/florence_sim/step", Step)(25)
             assert res.sim_time == pytest.approx(frozen + 0.25, abs=1e-6)
+            assert now().sim_time == pytest.approx(res.sim_time, abs=1e-6)  # at once, not when the clock arrives
             wait_for(lambda: _sim_now(apartment_topics) == pytest.approx(res.sim_time), 10.0,
                      what="clock after the steps")
         finally:

@@ -198,13 +198,15 @@ class EnablersSession(PeopleSession):
             self.feedback.append((self.sim_now(), name, fb.x, fb.y))
 
     def wait_result(self, client, sim_timeout):
-        """Wait until the goal ends or ``sim_timeout`` simulated seconds pass (a wall backstop when
-        the simulation stalls); returns (state name, text)."""
+        """Wait until the goal ends (and the recorders reach the simulator's present: catch_up) or
+        ``sim_timeout`` simulated seconds pass (a wall backstop when the simulation stalls); returns
+        (state name, text)."""
         start = self.sim_now()
         deadline = time.monotonic() + 20.0 * sim_timeout + 60.0
         while time.monotonic() < deadline:
             state = client.get_state()
             if state not in (GoalStatus.PENDING, GoalStatus.ACTIVE):
+                self.catch_up()
                 return STATE_NAMES.get(state, str(state)), client.get_goal_status_text()
             if self.sim_now() - start > sim_timeout:
                 return "TIMEOUT", f"no result after {sim_timeout:.0f} s of simulated time"

@@ -173,13 +173,15 @@ class LocatorSession(PeopleSession):
         return proxy(*args)
 
     def wait_status(self, states, sim_timeout, wall_timeout=None):
-        """Wait until getStatus is one of ``states`` (or ``sim_timeout`` simulated seconds pass);
-        returns the response (its status "TIMEOUT" on a timeout)."""
+        """Wait until getStatus is one of ``states`` (or ``sim_timeout`` simulated seconds pass), and
+        the recorders reach the simulator's present (catch_up); returns the response (its status
+        "TIMEOUT" on a timeout)."""
         start = self.sim_now()
         deadline = time.monotonic() + (wall_timeout or 20 * sim_timeout + 60)
         while time.monotonic() < deadline:
             res = self.call("getStatus")
             if res.status in states:
+                self.catch_up()
                 return res
             if self.sim_now() - start > sim_timeout:
                 break

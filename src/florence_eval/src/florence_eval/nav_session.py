@@ -20,6 +20,7 @@ from std_msgs.msg import UInt32
 
 from florence_common_ros import convert
 from florence_common_ros.actions import SimpleActionClient
+from florence_eval import sim_now
 
 STATE_NAMES = {v: k for k, v in vars(GoalStatus).items() if isinstance(v, int) and k.isupper()}
 
@@ -77,6 +78,10 @@ class TruthRecorder:
     def sim_now(self):
         last = self.latest()
         return last[0] if last else 0.0
+
+    def catch_up(self, timeout=60.0):
+        """Wait until the recorded ground truth reaches the simulator's present (sim_now.py)."""
+        return sim_now.catch_up(self.sim_now, timeout)
 
     def track(self, since=0.0):
         """Ground-truth rows (t, x, y, yaw, v, w) stamped at or after ``since`` [s] (the stamps
@@ -152,13 +157,15 @@ class NavSession(TruthRecorder):
         self.client.send_goal(make_goal(x, y, yaw, frame))
 
     def wait_result(self, sim_timeout, wall_timeout=None):
-        """Wait until the goal ends or ``sim_timeout`` simulated seconds pass (and, as a backstop when
-        the simulation stalls, ``wall_timeout`` wall seconds). Returns (state name, text)."""
+        """Wait until the goal ends (and the recorders reach the simulator's present: catch_up) or
+        ``sim_timeout`` simulated seconds pass (and, as a backstop when the simulation stalls,
+        ``wall_timeout`` wall seconds). Returns (state name, text)."""
         start_sim = self.sim_now()
         deadline = time.monotonic() + (wall_timeout if wall_timeout is not None else 20.0 * sim_timeout + 60.0)
         while time.monotonic() < deadline:
             state = self.client.get_state()
             if state not in (GoalStatus.PENDING, GoalStatus.ACTIVE):
+                self.catch_up()
                 return STATE_NAMES.get(state, str(state)), self.client.get_goal_status_text()
             if self.sim_now() - start_sim > sim_timeout:
                 return "TIMEOUT", f"no result after {sim_timeout:.0f} s of simulated time"

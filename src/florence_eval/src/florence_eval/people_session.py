@@ -22,7 +22,7 @@ from nav_msgs.msg import Odometry
 
 from florence_common.processes import wait_for
 from florence_common_ros.convert import to_xyyaw
-from florence_eval import people_metrics
+from florence_eval import people_metrics, sim_now
 
 FORGET = "/collision_monitor/forget"  # std_srvs/Trigger: the monitor drops what it remembers
 CLEAR_COSTMAPS = "/move_base/clear_costmaps"  # std_srvs/Empty: move_base's costmaps drop what the sensors marked
@@ -148,6 +148,11 @@ class PeopleSession:
     def sim_now(self):
         with self.lock:
             return self.truth[-1][0] if self.truth else 0.0
+
+    def catch_up(self, timeout=60.0):
+        """Wait until the recorded ground truth reaches the simulator's present (sim_now.py): call it
+        before judging an outcome that came by another way (a service, an action result)."""
+        return sim_now.catch_up(self.sim_now, timeout)
 
     def wait_sim(self, seconds, timeout=None):
         """Let ``seconds`` of simulated time pass (wall timeout: 20 x that plus 30 s)."""

@@ -428,6 +428,7 @@ class Day:
             self.s.follow_client.cancel_goal()
             wait_for(self._follow_ended, 30.0, what="follow_me's end after the cancel")
             result = self.s.follow_client.get_result()
+            self.s.catch_up()
             self.s.wait_sim(1.0)
             track, people = self.s.track(walk), self.s.people_log(walk)
             t, d = judge.distance_series(track, judge.person_rows(people, USER))
@@ -489,6 +490,7 @@ class Day:
             if state in ("PENDING", "ACTIVE"):
                 self.s.approach_client.cancel_goal()
                 state, text = "TIMEOUT", "no result in 90 simulated s"
+            self.s.catch_up()
             self.s.wait_sim(1.0)
             robot, user = self.s.robot(), self.user()
             pos, head = enablers_metrics.approach_errors(robot, user0[:2], robot0[:2], user[:2], APPROACH["distance"],

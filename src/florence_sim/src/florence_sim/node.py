@@ -36,6 +36,7 @@ ROS Subscribers:
 
 ROS Services:
     ~pause, ~unpause (std_srvs/Empty); ~step (florence_sim/Step): advance a paused simulation
+    ~now (florence_sim/Now): the simulated time now (a client's topics may lag behind it)
     ~set_robot_pose (florence_sim/SetRobotPose); ~set_person (florence_sim/SetPerson);
     ~remove_person (florence_sim/RemovePerson)
 """
@@ -117,7 +118,7 @@ class SimNode:
         from visualization_msgs.msg import MarkerArray
 
         from florence_sim.msg import People
-        from florence_sim.srv import RemovePerson, SetPerson, SetRobotPose, Step
+        from florence_sim.srv import Now, RemovePerson, SetPerson, SetRobotPose, Step
         from turtlebot_node.msg import TurtlebotSensorState
 
         self.rospy = rospy
@@ -183,6 +184,7 @@ class SimNode:
         rospy.Service("~pause", Empty, self._on_pause)
         rospy.Service("~unpause", Empty, self._on_unpause)
         rospy.Service("~step", Step, self._on_step)
+        rospy.Service("~now", Now, self._on_now)
         rospy.Service("~set_robot_pose", SetRobotPose, self._on_set_pose)
         rospy.Service("~set_person", SetPerson, self._on_set_person)
         rospy.Service("~remove_person", RemovePerson, self._on_remove_person)
@@ -261,6 +263,12 @@ class SimNode:
             while self.pending_steps > 0 and not self.rospy.is_shutdown():
                 self.lock.wait(0.1)
             return StepResponse(self.sim.time)
+
+    def _on_now(self, _req):
+        from florence_sim.srv import NowResponse
+
+        with self.lock:
+            return NowResponse(self.sim.time)
 
     def _on_set_pose(self, req):
         from florence_sim.srv import SetRobotPoseResponse
