@@ -13,8 +13,10 @@ from approach_me_map.poses import (
     StrangerWait,
     behind,
     in_the_way,
+    judge_way,
     least_distance,
     nearest_track,
+    path_length,
     rank,
     still_facings,
     strangers,
@@ -160,6 +162,32 @@ def test_in_the_way_is_near_what_is_left_of_the_way():
     assert in_the_way(way, (2.0, 0.0), people, 0.4).shape == (0, 2)
     assert in_the_way([], (0.0, 0.0), people, 0.6).shape == (0, 2)
     assert in_the_way(way, (0.0, 0.0), np.empty((0, 2)), 0.6).shape == (0, 2)
+
+
+def test_path_length_is_the_way_driven():
+    # round three sides of a 1 m square: 3 m for a straight line of 1 m (a detour of 2 m)
+    assert path_length([[0.0, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, 0.0]]) == pytest.approx(3.0)
+    assert path_length([[2.0, 2.0]]) == 0.0
+    assert path_length([]) == 0.0
+
+
+def test_judge_way_passes_over_a_detour_round_the_furniture():
+    # the demo's seated user at (3.0, 2.4); the robot at (4.3, 2.9) and a pose 0.6 m in front of her
+    user, start, pose = (3.0, 2.4), (4.3, 2.9), (2.42, 2.17)
+    args = (user, np.empty((0, 2)), 0.6, math.radians(45.0), 0.6, 2.5)
+    direct = [start, (3.6, 1.8), (2.9, 1.85), pose]  # south of her, 0.55 m off at the closest
+    rank_direct, why = judge_way(direct, start, pose, *args)
+    assert why == "" and rank_direct[:2] == (False, False)
+    # round the dining area by the north: 7.1 m for 2.0 m
+    north = [start, (4.3, 4.6), (1.8, 4.6), (1.8, 2.3), pose]
+    rank_north, why = judge_way(north, start, pose, *args)
+    assert rank_north[:2] == (False, True) and why == "is 7.1 m for 2.0 m"
+    # with max_detour 6 m it would be taken
+    assert judge_way(north, start, pose, *args[:-1], 6.0)[1] == ""
+    # passing near somebody else counts before the detour: the fallback order
+    rank_past, why = judge_way(direct, start, pose, user, np.array([[3.6, 1.6]]), *args[2:])
+    assert rank_past[0] and "from somebody else" in why
+    assert sorted([rank_past, rank_north, rank_direct]) == [rank_direct, rank_north, rank_past]
 
 
 def test_least_distance_of_a_path_to_people():

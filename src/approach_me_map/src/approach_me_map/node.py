@@ -65,12 +65,11 @@ from approach_me_map.poses import (
     StrangerWait,
     behind,
     in_the_way,
-    least_distance,
+    judge_way,
     nearest_track,
     rank,
     still_facings,
     strangers,
-    swept_near,
 )
 from detect_users.msg import DetectedUser
 from florence_common import angles
@@ -109,6 +108,9 @@ PARAMS = ParamTable(
           "min_person_distance) ...", unit="m", ge=0),
     Param("pass_sweep", float, 45.0, "... by more than this angle is taken only when no other pose has a path "
           "(even one behind her: move_base stalls on the way round her)", unit="deg", ge=0),
+    Param("max_detour", float, 2.5, "likewise a path longer than the straight line from the robot to the pose by "
+          "more than this: the way round the furniture to a seated user's front, 7-13 m for 2 m, which the "
+          "robot loses and finds again as the tracker loses and finds her", unit="m", ge=0),
     Param("stranger_distance", float, 0.6, "likewise a path that passes nearer than this (move_base's "
           "min_person_distance) to another tracked person standing still: move_base would wait for them (one seen so "
           "near what is left of the way ends the trial)",
@@ -442,11 +444,12 @@ class ApproachMeMapNode:
                                     self.p.facing_max_speed), np.reshape(met, (-1, 2))])
 
     def _plannable(self, candidates, robot, beat, user):
-        """(candidate, way): the first candidate with a plan that neither goes round the user nor passes
-        near somebody else standing (module poses) with its plan's path (N, 2) [m, map], else the one
-        whose plan passes nobody and goes least round her with None, else (None, None)."""
+        """(candidate, way): the first candidate with a plan that neither goes round the user, nor passes
+        near somebody else standing (module poses), nor is a detour (~max_detour), with its plan's path
+        (N, 2) [m, map]; else the one whose plan passes nobody, is no detour and goes least round her,
+        in that order, with None; else (None, None)."""
         others = self._others(user)
-        fallback, least, seen = None, (True, math.inf), []
+        fallback, least, seen = None, (True, True, math.inf), []
         chosen = way = None
         for c in candidates[:self.p.plan_checks]:
             self._check()
@@ -463,17 +466,14 @@ class ApproachMeMapNode:
                 seen.append(f"{math.degrees(c.offset):+.0f} deg: no path")
                 continue
             path = [(q.pose.position.x, q.pose.position.y) for q in plan.poses]
-            sweep = swept_near(path, user, self.p.pass_distance)
-            near = least_distance(path, others)
-            past = near < self.p.stranger_distance
-            if sweep <= math.radians(self.p.pass_sweep) and not past:
+            rank, why = judge_way(path, robot, (c.x, c.y), user, others, self.p.pass_distance,
+                                  math.radians(self.p.pass_sweep), self.p.stranger_distance, self.p.max_detour)
+            if not why:
                 chosen, way = c, np.asarray(path)
                 break
-            seen.append(f"{math.degrees(c.offset):+.0f} deg: the way "
-                        + (f"passes {near:.2f} m from somebody else" if past else
-                           f"goes {math.degrees(sweep):.0f} deg round her"))
-            if (past, sweep) < least:
-                fallback, least = c, (past, sweep)
+            seen.append(f"{math.degrees(c.offset):+.0f} deg: the way {why}")
+            if rank < least:
+                fallback, least = c, rank
         chosen = chosen or fallback
         if seen:
             rospy.loginfo(LOG + "poses asked of make_plan before the one taken (%s): %s",

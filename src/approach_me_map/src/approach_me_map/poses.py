@@ -229,6 +229,33 @@ def least_distance(path_xy, points):
     return float(_from_path(xy, points).min())
 
 
+
+def path_length(path_xy):
+    """Length [m] of a path (N, 2) [m]: the way a plan makes the robot drive (0 for under two points)."""
+    xy = np.asarray(path_xy, dtype=float).reshape(-1, 2)
+    return float(np.hypot(*np.diff(xy, axis=0).T).sum()) if len(xy) > 1 else 0.0
+
+
+
+def judge_way(path_xy, start, pose, user, others, pass_distance, pass_sweep, stranger_distance, max_detour):
+    """Whether a make_plan path (N, 2) [m] from ``start`` (x, y) to ``pose`` (x, y) suits an approach
+    of the user at ``user`` (x, y), with ``others`` (S, 2) the other people standing: (rank, why).
+    ``rank`` = (passes near somebody else, is a detour, angle [rad] it goes round her within
+    ``pass_distance``); the path is taken when it is (False, False, <= ``pass_sweep`` [rad]), else
+    the least rank is the fallback. ``why``: what is wrong with it ('' when nothing)."""
+    sweep = swept_near(path_xy, user, pass_distance)
+    near = least_distance(path_xy, others)
+    length, straight = path_length(path_xy), math.dist(start[:2], pose[:2])
+    rank = (near < stranger_distance, length - straight > max_detour, sweep)
+    if rank[0]:
+        return rank, f"passes {near:.2f} m from somebody else"
+    if rank[1]:
+        return rank, f"is {length:.1f} m for {straight:.1f} m"
+    if sweep > pass_sweep:
+        return rank, f"goes {math.degrees(sweep):.0f} deg round her"
+    return rank, ""
+
+
 class StrangerWait:
     """Whether move_base has waited ``wait`` [s] for somebody other than the user (module
     docstring): its waiting_for ((x, y) [m], time received [s]), sent at most twice a second while
