@@ -47,10 +47,15 @@ path that passes nearer than ``stranger_distance`` to somebody else standing sti
 (:func:`strangers`, :func:`least_distance`), for the same reason: the robot would wait for them
 until the trial's time ran out. Of such fallbacks, one past nobody comes first. (make demo: her
 front, round the dining table, passed 0.55 m from the visitor standing by it; the robot waited
-there 45 s, then went to her back.) Somebody the tracker does not show when the poses are ranked
-(out of the Kinect's view) counts once move_base has waited ``stranger_wait`` for them
-(:class:`StrangerWait`), or once the robot sees them standing that near what is left of its way
-(:func:`in_the_way`): that trial ends, and the next ones keep clear of where they stand.
+there 45 s, then went to her back.) So is a detour, a path longer than the straight line by more
+than ``max_detour`` (:func:`judge_way`, which orders the fallbacks: past nobody, no detour, least
+round her): the ways to the demo's seated user's front went round the dining area (7-13 m for
+2 m) or between her and the table (2.4-3.3 m) as her track came and went in the global costmap,
+and the robot circled between them until the trial's time ran out. Somebody the tracker does
+not show when the poses are ranked (out of the Kinect's view) counts once move_base has waited
+``stranger_wait`` for them (:class:`StrangerWait`), or once the robot sees them standing that
+near what is left of its way (:func:`in_the_way`): that trial ends, and the next ones keep clear
+of where they stand.
 
 **A stalled trial** (:class:`Stall`). Near a seated person's body move_base may stop short of the
 pose and never finish: its local planner refuses to turn the footprint's nose into her costs
