@@ -12,6 +12,7 @@ from move_base.layers import KeepoutLayer, LayeredCostmap, ObservationSource
 from move_base.navfn import compute_potential, translate_costs
 from move_base.people_layer import (
     GIVE_WAY_FAN,
+    SENT_TO_ID,
     Person,
     ProxemicLayer,
     RecentPoints,
@@ -86,6 +87,29 @@ def test_the_person_is_carried_along_and_lapses_when_the_track_is_gone():
     c = grid()
     layer.update_costs(c, now=7.8)
     assert int(c.costs.max()) == 0
+
+
+def test_the_person_the_robot_is_sent_to_stands_while_announced_tracked_or_not():
+    layer = ProxemicLayer(keep_time=8.0, lethal_radius=0.3)
+    layer.set_people([Person(1.0, 0.0, 0.0, 0.0, seen=1.0, id=7)], stamp=1.0)
+    layer.sent_to(1.1, 0.1, until=3.0)  # approach_me_map's place of her, 0.14 m off her track
+    assert layer.current(2.0)[1] == [7]  # tracked: her track, not a second person
+    # the robot turned its back on her: her track lapsed, she is still there while announced
+    layer.set_people([], stamp=9.5)
+    layer.sent_to(1.1, 0.1, until=10.0)
+    people, ids = layer.current(9.5)
+    assert ids == [SENT_TO_ID] and people.tolist() == [[1.1, 0.1, 0.0, 0.0]]
+    c = grid()
+    layer.update_costs(c, now=9.5)
+    assert c.cost_at(1.125, 0.125) == LETHAL_OBSTACLE  # a plan keeps off her as it did while she was tracked
+    # no longer announced (the approach ended): gone
+    assert layer.current(10.5)[1] == []
+    layer.sent_to(math.nan, 0.0, until=20.0)  # ignored
+    assert layer.current(10.5)[1] == []
+    layer.clear()
+    layer.sent_to(1.1, 0.1, until=12.0)
+    layer.clear()
+    assert layer.current(11.0)[1] == []
 
 
 def test_recent_points_are_remembered_for_a_moment():

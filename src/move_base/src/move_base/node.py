@@ -14,7 +14,8 @@ Subscribers:
     odom (nav_msgs/Odometry): the robot's velocity, for the local planner.
     ~approach_target (geometry_msgs/PointStamped): where the person the robot is sent to stands
         (approach_me_map, while its goal runs): she is kept at TrajectoryPlannerROS/
-        approach_person_distance instead of min_person_distance and is nobody to wait for; it lapses
+        approach_person_distance instead of min_person_distance and is nobody to wait for, and she
+        stands in the global costmap's proxemic layer while the tracker holds nobody there; it lapses
         APPROACH_TARGET_KEEP after the last message.
 
 Publishers:
@@ -493,6 +494,12 @@ class MoveBaseNode:
     def _approach_target_cb(self, msg):
         with self._approach_lock:
             self._approach_target = (msg, rospy.get_time())
+        # she stands in the global costmap while announced, tracked or not (ProxemicLayer.sent_to)
+        layer = self.planner_costmap.layered.people
+        where = self.approach_target(self.planner_costmap.global_frame)
+        if layer is not None and where is not None:
+            with self.planner_costmap.lock:
+                layer.sent_to(*where, rospy.get_time() + APPROACH_TARGET_KEEP)
 
     def approach_target(self, frame):
         """(x, y) [m] in ``frame`` of the person the robot is sent to (``~approach_target``), or None

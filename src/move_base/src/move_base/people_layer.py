@@ -35,6 +35,7 @@ from florence_common.params import Param, ParamTable
 from move_base.costmap_2d import LETHAL_OBSTACLE, NO_INFORMATION
 
 CARRY_LIMIT = 0.5  # [s] how far along their velocity a person's position is carried
+SENT_TO_ID = -2  # the id current() gives the person the robot is sent to when no track holds her (sent_to)
 
 PROXEMIC_PARAMS = ParamTable(
     Param("amplitude", float, 77.0, "cost at a person's centre", ge=0.0, le=252.0),
@@ -88,6 +89,16 @@ class ProxemicLayer:
         self._people = {}  # id -> (Person, stamp [s] of the message it came in)
         self._stamp = None  # [s] the newest message's time
         self._trail = []  # (t [s], x [m], y [m]) of every tracked person of the last trail_time
+        self._sent_to = None  # (x [m], y [m], until [s]): the person the robot is sent to (sent_to)
+
+    def sent_to(self, x, y, until):
+        """The person the robot is sent to (move_base's ~approach_target) stands at (x, y) [m] until
+        ``until`` [s]: while no tracked person is within APPROACH_MATCH of her she is one, still (the
+        tracker drops a seated user the robot turns its back on, and a plan to her front then
+        flipped between the way round the furniture, with her there, and the gap past her, 8 s
+        later without her, at every turn). Not finite: ignored."""
+        if all(math.isfinite(v) for v in (x, y, until)):
+            self._sent_to = (float(x), float(y), float(until))
 
     def set_people(self, people, stamp):
         """The people of the newest tracker message (an iterable of :class:`Person`), ``stamp`` [s]
@@ -111,6 +122,7 @@ class ProxemicLayer:
         self._people = {}
         self._stamp = None
         self._trail = []
+        self._sent_to = None
 
     def trail(self, now=None):
         """(N, 3) x, y [m], trail_radius: where tracked people were within trail_time before
@@ -131,8 +143,9 @@ class ProxemicLayer:
     def current(self, now=None):
         """The people at ``now`` [s] (None: as last reported) not lapsed (seen within keep_time),
         each moved along its velocity from the time of the message that held it to ``now`` (at
-        most CARRY_LIMIT: a lost track's velocity is not a forecast): (N, 4) array of (x, y, vx,
-        vy) and their ids."""
+        most CARRY_LIMIT: a lost track's velocity is not a forecast), and the person the robot is
+        sent to where no track holds her (:meth:`sent_to`, id SENT_TO_ID): (N, 4) array of (x, y,
+        vx, vy) and their ids."""
         rows, ids = [], []
         for pid, (p, stamp) in self._people.items():
             if now is not None and now - p.seen > self.keep_time:
@@ -140,6 +153,12 @@ class ProxemicLayer:
             ahead = 0.0 if now is None else min(max(now - stamp, 0.0), CARRY_LIMIT)
             rows.append((p.x + p.vx * ahead, p.y + p.vy * ahead, p.vx, p.vy))
             ids.append(pid)
+        if self._sent_to is not None:
+            x, y, until = self._sent_to
+            t = now if now is not None else self._stamp
+            if (t is None or t <= until) and not any(math.hypot(r[0] - x, r[1] - y) <= APPROACH_MATCH for r in rows):
+                rows.append((x, y, 0.0, 0.0))
+                ids.append(SENT_TO_ID)
         return np.array(rows, dtype=float).reshape(-1, 4), ids
 
     def followed(self, now, robot):
