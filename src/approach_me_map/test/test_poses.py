@@ -18,6 +18,7 @@ from approach_me_map.poses import (
     nearest_track,
     path_length,
     rank,
+    reaimed,
     still_facings,
     strangers,
     swept_near,
@@ -188,6 +189,14 @@ def test_judge_way_passes_over_a_detour_round_the_furniture():
     rank_past, why = judge_way(direct, start, pose, user, np.array([[3.6, 1.6]]), *args[2:])
     assert rank_past[0] and "from somebody else" in why
     assert sorted([rank_past, rank_north, rank_direct]) == [rank_direct, rank_north, rank_past]
+
+
+def test_a_pose_moves_with_the_user_but_not_into_the_furniture():
+    table = room(walls=[(1.55, 1.4, 2.45, 1.8)])  # the demo's dining table by the seated user
+    beside = (2.80, 1.95)  # 0.38 m from the table's corner
+    assert reaimed(beside, (0.1, 0.1), table, 0.25) == pytest.approx((2.9, 2.05))  # away from it: moved
+    assert reaimed(beside, (-0.16, -0.1), table, 0.25) is None  # (2.64, 1.85): 0.19 m from its corner
+    assert reaimed(beside, (-0.16, -0.1), None, 0.25) == pytest.approx((2.64, 1.85))  # no map: moved
 
 
 def test_least_distance_of_a_path_to_people():

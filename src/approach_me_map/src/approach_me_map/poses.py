@@ -129,6 +129,18 @@ class ObstacleGrid(Grid):
         return self.clearance_at(xy) >= radius
 
 
+
+def reaimed(target, shift, grid, min_clearance):
+    """The pose ``target`` (x, y) [m] moved by ``shift`` (dx, dy) [m] with the user's tracked place, or
+    None when the map ``grid`` (an ObstacleGrid; None: no map) has furniture within ``min_clearance``
+    [m] of it there: a pose beside a table, moved with her track's jitter, fell within the table's
+    inscribed ring and move_base ran its recoveries ("the goal is in an obstacle")."""
+    moved = (float(target[0] + shift[0]), float(target[1] + shift[1]))
+    if grid is not None and not grid.free_within([moved], min_clearance)[0]:
+        return None
+    return moved
+
+
 def rank(user, robot, p, grid=None, exclude=(), facing=None, seated=False, not_behind=False):
     """Candidate poses around ``user`` (x, y) [m] for a robot at ``robot`` (x, y) [m], best first
     (module docstring). ``grid``: an ObstacleGrid (None: every pose is free); ``exclude``: angles
