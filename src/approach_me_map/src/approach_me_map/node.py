@@ -126,7 +126,8 @@ PARAMS = ParamTable(
           "the rest (move_base's people layer keeps plans 0.47 m from the user's tracked centre: a goal at 0.5 m "
           "fell into that as her track moved); with ~align false, none", unit="m", ge=0, le=0.5),
     Param("reaim_distance", float, 0.1, "the tracked user this far from where the pose was put around her: the "
-          "move_base goal moves with her (same place around her)", unit="m", gt=0),
+          "move_base goal moves with her (same place around her), unless that is within ~min_clearance of the "
+          "map's furniture", unit="m", gt=0),
     Param("reaim_period", float, 2.0, "at most one such move in this long", unit="s", ge=0),
     Param("stall_timeout", float, 5.0, "move_base's robot standing still this long within ~stall_radius of the "
           "pose: its goal ends and the last half metre starts from there", unit="s", gt=0),
