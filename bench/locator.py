@@ -18,7 +18,8 @@ collisions, simulated time.
 
 Targets (issue 20): >= 95 % SUCCEEDED, final distance 0.5 +/- 0.15 m, facing error <= 20 deg,
 never nearer than 0.45 m to any person, 0 collisions; median and p90 time per gotoUser. Writes
-bench/results/locator.json and bench/results/locator.png (every run's path to the user).
+bench/results/locator.json and bench/results/locator.png (every run's path to the user), and what
+the stack printed in bench/results/locator_logs/.
 """
 
 import argparse
@@ -102,7 +103,24 @@ def main():
         session.close()
     finally:
         stop_stack(procs)
+        keep_logs(procs, RESULTS / f"{name}_logs")
         master.stop()
+
+
+def keep_logs(procs, folder):
+    """Copy what the stack's processes printed (roslaunch logs, stamped [wall, simulated] time: a run's
+    'track' gives its simulated times) to ``folder``, replacing an earlier run's: the bench's master
+    and its logs are temporary, and a run that went wrong was otherwise left unexplained."""
+    import shutil
+
+    if folder.exists():
+        shutil.rmtree(folder)
+    folder.mkdir(parents=True)
+    for proc in procs:
+        path = getattr(proc, "log_path", None)
+        if path and os.path.exists(path):
+            shutil.copy(path, folder / os.path.basename(path))
+    print(f"the stack's logs in {folder}")
 
 
 if __name__ == "__main__":
