@@ -129,7 +129,6 @@ class ObstacleGrid(Grid):
         return self.clearance_at(xy) >= radius
 
 
-
 def reaimed(target, shift, grid, min_clearance):
     """The pose ``target`` (x, y) [m] moved by ``shift`` (dx, dy) [m] with the user's tracked place, or
     None when the map ``grid`` (an ObstacleGrid; None: no map) has furniture within ``min_clearance``
@@ -246,12 +245,10 @@ def least_distance(path_xy, points):
     return float(_from_path(xy, points).min())
 
 
-
 def path_length(path_xy):
     """Length [m] of a path (N, 2) [m]: the way a plan makes the robot drive (0 for under two points)."""
     xy = np.asarray(path_xy, dtype=float).reshape(-1, 2)
     return float(np.hypot(*np.diff(xy, axis=0).T).sum()) if len(xy) > 1 else 0.0
-
 
 
 def judge_way(path_xy, start, pose, user, others, pass_distance, pass_sweep, stranger_distance, max_detour):
