@@ -5,10 +5,11 @@ split into clusters of consecutive returns closer than ``cluster_distance`` to e
 beam or two without a return inside a leg do not split it); a leg is a cluster of at least
 ``min_points`` returns, ``min_width``..``max_width`` wide (shins are 6 cm or more; chair and
 table legs and lamp poles are thinner), standing out from what is behind it on both sides (a
-bump on a wall is not a leg). Its centre is the mean of its returns moved back along the ray by
-3/8 of its width: the returns lie on the near side of the leg. Legs closer than
-``max_pair_distance`` pair into a person at their midpoint; a leg with no partner (the other one
-hidden behind it) is a person by itself. Such a lone leg with something nearer than it by
+bump on a wall is not a leg), or on one side and going on behind a leg that does on the other (the
+far leg of a person seen at a slant, partly hidden by the near one). Its centre is the mean of its
+returns moved back along the ray by 3/8 of its width: the returns lie on the near side of the leg.
+Legs closer than ``max_pair_distance`` pair into a person at their midpoint; a leg with no partner
+(the other one hidden behind it) is a person by itself. Such a lone leg with something nearer than it by
 ``hidden_margin`` within ``max_pair_distance`` of it across the line of sight may have its
 partner hidden behind that (another person crossing in front): :func:`partner_hidden` says so,
 and the tracker trusts its side less (its centre is off the person's, up to a stride); so does a
@@ -108,7 +109,18 @@ def find_legs(xy, valid, sensor_xy, params):
     full = np.where(valid, rng, np.inf)
     before = np.where(first > 0, full[np.maximum(first - 1, 0)], np.inf)
     after = np.where(last < len(xy) - 1, full[np.minimum(last + 1, len(xy) - 1)], np.inf)
-    ok &= (before - near >= p.edge_jump) & (after - near >= p.edge_jump)
+    out_before, out_after = before - near >= p.edge_jump, after - near >= p.edge_jump
+    strict = ok & out_before & out_after
+    # ... or, on one side, it goes on behind a leg that stands out: the far leg of a person seen at a
+    # slant, partly hidden by the near one (dropped, the person was the near leg alone, up to half
+    # their stance short of their centre)
+    k = np.arange(len(starts))
+    prev_leg = (k > 0) & (idx[np.maximum(starts - 1, 0)] == first - 1) & strict[np.maximum(k - 1, 0)]
+    next_leg = (k < len(starts) - 1) & (idx[np.minimum(ends + 1, n - 1)] == last + 1) & \
+        strict[np.minimum(k + 1, len(starts) - 1)]
+    behind_prev = prev_leg & (r[starts] - before >= p.edge_jump)
+    behind_next = next_leg & (r[ends] - after >= p.edge_jump)
+    ok = strict | (ok & ((out_before & behind_next) | (behind_prev & out_after)))
     if not ok.any():
         return np.zeros((0, 2))
     sums = np.zeros((len(starts), 2))
