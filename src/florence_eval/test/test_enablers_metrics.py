@@ -38,6 +38,26 @@ def test_a_perfect_follower_only_loses_what_it_cannot_see():
     assert slow["max_error_m"] < late["max_error_m"] and slow["rms_error_m"] < late["rms_error_m"]
 
 
+def test_a_perfect_follower_on_her_trail_cuts_no_corner():
+    """She walks 3 m east from 1 m ahead, turns north and walks 3 m more at the top speed: straight at
+    her, the follower makes up at the corner what it lost setting off; on her trail (as follow_me goes)
+    it does not, and loses what a straight walk of the same length costs."""
+    t = np.arange(0.0, 16.0 + 1e-9, 0.1)
+    walked = 0.5 * np.clip(t - 2.0, 0.0, 12.0)
+    x = 1.0 + np.minimum(walked, 3.0)
+    y = np.clip(walked - 3.0, 0.0, 3.0)
+    corner = np.column_stack([t, x, y])
+    straight_walk = np.column_stack([t, 1.0 + np.minimum(walked, 6.0), np.zeros(len(t))])
+    at_her = em.ideal_following(corner, (0.0, 0.0), 1.0, 2.0, 16.0, delay=0.3)
+    on_trail = em.ideal_following(corner, (0.0, 0.0), 1.0, 2.0, 16.0, delay=0.3, along_trail=True)
+    same_length = em.ideal_following(straight_walk, (0.0, 0.0), 1.0, 2.0, 16.0, delay=0.3)
+    assert on_trail["rms_error_m"] == pytest.approx(same_length["rms_error_m"], abs=1e-3)
+    assert on_trail["rms_error_m"] > at_her["rms_error_m"] + 0.03
+    assert on_trail["max_error_m"] == pytest.approx(0.125 + 0.15, abs=0.03)  # its acceleration and 0.3 s of her walk
+    line = em.straightened(corner, (0.0, 0.0), 2.0)
+    assert line[-1, 1] == pytest.approx(7.0) and np.all(line[:, 2] == 0.0)
+
+
 def test_a_perfect_follower_closes_in_on_a_person_standing_farther_and_stops_at_the_distance():
     person = walk_east(0.0, start=(1.5, 0.0), stand=0.0, seconds=10.0)
     out = em.ideal_following(person, (0.0, 0.0), 1.0, 0.0, 10.0)

@@ -60,15 +60,21 @@ def following(robot, person, feedback, states, desired, since, until):
     }
 
 
-def ideal_following(person, robot_xy, desired, since, until, max_speed=0.5, max_acc=1.0, delay=0.0, dt=0.02):
+def ideal_following(person, robot_xy, desired, since, until, max_speed=0.5, max_acc=1.0, delay=0.0, dt=0.02,
+                    along_trail=False):
     """What a perfect follower would score on ``person``'s true rows (t, x, y) over [since, until] [s]:
     starting at rest at ``robot_xy`` (x, y) [m] at ``since``, it drives straight at the person (turning
     at once, through walls, seeing them without delay) at the speed that brings the distance to
     ``desired`` [m] soonest within ``max_speed`` [m/s] (forward or back) and ``max_acc`` [m/s^2] (the
     base's limits: follow_me's and velocity_filter's 1.0); with ``delay`` [s], it sees where the
     person was (and how fast they went) that long before. With no delay, a bound from below for the
-    real robot, which must turn, go round the doorway's jambs and wait for the tracker. Returns RMS and
-    largest error [m] as :func:`following` does, and the mean distance."""
+    real robot, which must turn, go round the doorway's jambs and wait for the tracker. With
+    ``along_trail``, it goes where the person went instead (as follow_me does, through the doorway they
+    took): their walk straightened out (:func:`straightened`), so that no corner is cut and what it loses
+    setting off at their speed is never made up. Returns RMS and largest error [m] as :func:`following`
+    does, and the mean distance."""
+    if along_trail:
+        person, robot_xy = straightened(person, robot_xy, since), (0.0, 0.0)
     person = np.asarray(person, dtype=float).reshape(-1, 3)
     t = np.arange(since, until + 1e-9, dt)
     px, py = np.interp(t, person[:, 0], person[:, 1]), np.interp(t, person[:, 0], person[:, 2])
@@ -91,6 +97,18 @@ def ideal_following(person, robot_xy, desired, since, until, max_speed=0.5, max_
         r = r + v * dt * np.array([ux, uy])
     return {"rms_error_m": float(np.sqrt(np.mean(err ** 2))), "max_error_m": float(np.max(np.abs(err))),
             "mean_distance_m": float(np.mean(err) + desired)}
+
+
+def straightened(person, robot_xy, since):
+    """``person``'s rows (t, x, y) laid out along a straight line from a robot at the origin: at ``since``
+    [s] as far from it as from ``robot_xy`` (x, y) [m], and on by the length of the way they walked since
+    (back by what they walked before). A follower that keeps to their trail sees only this distance."""
+    person = np.asarray(person, dtype=float).reshape(-1, 3)
+    walked = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(person[:, 1]), np.diff(person[:, 2])))])
+    at = np.interp(since, person[:, 0], walked)
+    start = math.hypot(np.interp(since, person[:, 0], person[:, 1]) - robot_xy[0],
+                       np.interp(since, person[:, 0], person[:, 2]) - robot_xy[1])
+    return np.column_stack([person[:, 0], start + walked - at, np.zeros(len(person))])
 
 
 def approach_target(person, robot0, distance, p2r):

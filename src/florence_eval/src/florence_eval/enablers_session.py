@@ -30,7 +30,7 @@ from florence_eval.people_session import PeopleSession, _registered
 
 TELEOP = "/cmd_vel_mux/input/teleop"
 START_TOLERANCE = 0.05  # [m] a follow trial's person sets off once the robot stands this near the distance
-IDEAL_DELAYS = (0.0, 0.3, 0.6)  # [s] a perfect follower seeing the person this late: its RMS error beside the robot's
+IDEAL_DELAYS = (0.0, 0.1, 0.3, 0.6)  # [s] a perfect follower seeing the person this late: its RMS error, reported
 DROPPED = "users dropped: "  # user_tracker_ni's /diagnostics keys, by reason
 DIAGNOSTICS_WAIT = 1.5  # [s] user_tracker_ni's /diagnostics come every second: a trial's drops are read this later
 STATE_NAMES = {v: k for k, v in vars(GoalStatus).items() if isinstance(v, int) and k.isupper()}
@@ -277,8 +277,8 @@ class EnablersSession(PeopleSession):
         /diagnostics) (enablers_metrics.following, from the walk's start; a fixed 2 s
         left the robot 0.11-0.14 m short of settled, a lag the walk at its top speed never made up),
         the distance at the walk's start, the goal's state, the collisions and the tracks; and the RMS
-        error a perfect follower would have had, seeing the person IDEAL_DELAYS late
-        (enablers_metrics.ideal_following)."""
+        error a perfect follower would have had, seeing the person IDEAL_DELAYS late, driving straight at
+        them and (``ideal_trail_rms_error_m``) on their trail (enablers_metrics.ideal_following)."""
         from florence_eval import enablers_metrics
 
         heading = math.atan2(path[1][1] - path[0][1], path[1][0] - path[0][0])
@@ -304,10 +304,11 @@ class EnablersSession(PeopleSession):
         robot_log, person_log = self.truth_log(walk), self.person_log(pid, walk)
         result = enablers_metrics.following(robot_log, person_log, self.feedback_log("follow_me", walk),
                                             self.states_log("follow_me", t0), desired, walk, end)
-        ideal = {f"{delay:.1f}_s": enablers_metrics.ideal_following(person_log, robot_log[0, 1:3], desired, walk, end,
-                                                                     delay=delay)["rms_error_m"]
-                 for delay in IDEAL_DELAYS}
-        return {**result, "ideal_rms_error_m": ideal, "start_distance_m": start_distance,
+        ideal, trail = ({f"{delay:.1f}_s": enablers_metrics.ideal_following(
+            person_log, robot_log[0, 1:3], desired, walk, end, delay=delay, along_trail=along)["rms_error_m"]
+            for delay in IDEAL_DELAYS} for along in (False, True))
+        return {**result, "ideal_rms_error_m": ideal, "ideal_trail_rms_error_m": trail,
+                "start_distance_m": start_distance,
                 "state": STATE_NAMES.get(self.follow_client.get_state()),
                 "text": self.follow_client.get_goal_status_text(), "collisions": self.collisions - collisions,
                 "final_distance_m": math.dist(self.pose()[:2], self.person(pid)), "walk_s": arrived - walk,
