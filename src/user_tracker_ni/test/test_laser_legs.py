@@ -196,3 +196,36 @@ def test_a_lone_leg_whose_partner_another_person_may_hide_is_told():
     (leg,) = find_legs(xy, valid, (0.0, 0.0), P)
     assert partner_hidden(xy, valid, (0.0, 0.0), [leg], P).tolist() == [False]
     assert partner_hidden(xy, valid, (0.0, 0.0), np.zeros((0, 2)), P).tolist() == []
+
+
+def test_a_person_standing_side_on_is_placed_behind_their_one_leg_in_view():
+    """Side-on, one leg hides the other: the person's centre lies behind the leg in view, not at it.
+    Not so for a lone leg whose partner something nearer may hide (where the partner is nobody knows),
+    one with something beside it about as far (the partner may be that, not taken for a leg) or both
+    legs seen as one (its centre is theirs already)."""
+    def people_of(circles, walls=(3.5,), params=P):
+        ranges = render(circles, walls=walls)
+        xy, valid = scan_points(ranges, AMIN, INC, 0.02, 5.6, IDENTITY)
+        _, widths = find_legs(xy, valid, (0.0, 0.0), params, widths=True)
+        return detect(ranges, AMIN, INC, 0.02, 5.6, IDENTITY, params)[1], widths
+
+    centre = np.array([1.1, 0.3])
+    along = centre / np.linalg.norm(centre)
+    side_on = [(*(centre - 0.1 * along), 0.065), (*(centre + 0.1 * along), 0.065)]
+    (person,), (width,) = people_of(side_on)
+    assert width < P.lone_width
+    assert np.linalg.norm(person - centre) == pytest.approx(0.1 - P.lone_shift, abs=0.015)
+    (at_leg,), _ = people_of(side_on, params=LegParams(lone_shift=0.0))
+    assert np.linalg.norm(at_leg - centre) == pytest.approx(0.1, abs=0.015)
+    # Bob's leg beside Alice's line of sight: his partner may be behind her, not behind his leg
+    people, _ = people_of([(1.9, 0.1, 0.065), (1.9, -0.08, 0.065), (2.5, -0.3, 0.065)])
+    bob = people[np.argmax(people[:, 0])]
+    assert bob == pytest.approx((2.5, -0.3), abs=0.05)
+    # a leg with something beside it about as far (its partner, maybe, seen but not taken for a leg) is not
+    people, _ = people_of([(2.0, -0.1, 0.065), (2.1, 0.25, 0.16)])
+    assert len(people) == 1 and people[0] == pytest.approx((2.0, -0.1), abs=0.03)
+    # a wide cluster (both legs as one) is not moved
+    people, widths = people_of([(2.0, 0.0, 0.1)])
+    assert widths[0] > P.lone_width and people[0] == pytest.approx((2.0, 0.0), abs=0.04)
+    with pytest.raises(ValueError):
+        LegParams(lone_shift=0.6).validate()

@@ -123,10 +123,9 @@ class ApproachMeNode(PersonBehaviour):
         if m is None:
             rospy.logdebug(LOG + "scan skipped: %s", why)
             return
-        xy, valid = laser_legs.scan_points(msg.ranges, msg.angle_min, msg.angle_increment, msg.range_min,
-                                           msg.range_max, m)
-        legs = laser_legs.find_legs(xy, valid, m[:2, 3], self.leg_params)
-        self.closeup = (rospy.get_time(), laser_legs.pair_legs(legs, self.leg_params))
+        _, people = laser_legs.detect(msg.ranges, msg.angle_min, msg.angle_increment, msg.range_min, msg.range_max, m,
+                                      self.leg_params)
+        self.closeup = (rospy.get_time(), people)
 
     def _confirm_closeup(self, person, robot, now):
         """The tracker may lose a standing person close up (the Kinect sees no upper body nearer than

@@ -119,6 +119,11 @@ LASER = ParamTable(
     Param("laser/hidden_margin", float, LegParams.hidden_margin,
           "a lone leg with something this much nearer beside it (within max_pair_distance across the line of "
           "sight) may have its partner hidden: the tracker trusts its side less", unit="m", gt=0),
+    Param("laser/lone_shift", float, LegParams.lone_shift,
+          "a lone leg whose partner nothing else hides has it in its shadow: the person's centre this much farther "
+          "along the line of sight (half a stance; 0: at the leg) ...", unit="m", ge=0, lt=0.5),
+    Param("laser/lone_width", float, LegParams.lone_width,
+          "... when the leg is no wider than this (wider: both legs seen as one)", unit="m", gt=0),
 )
 
 TRACKER = ParamTable(

@@ -166,8 +166,9 @@ class Pipeline:
             seen = laser_legs.in_view([tr.output(coast) for tr in confirmed], angle_min, angle_max, pose)
             self.tracker.out_of_view(t, [tr for tr, s in zip(confirmed, seen, strict=True) if not s])
         self.tracker.hold_seated(t, xy[valid])  # a seated person's legs are one block, no pair of legs
-        legs = laser_legs.find_legs(xy, valid, sensor, self.p.legs)
-        legs = legs[~self._on_structure(legs, fixed_in_map)]  # a wall's end is no leg
+        legs, widths = laser_legs.find_legs(xy, valid, sensor, self.p.legs, widths=True)
+        keep = ~self._on_structure(legs, fixed_in_map)  # a wall's end is no leg
+        legs, widths = legs[keep], widths[keep]
         leg_free = self.free.in_free_space(legs)
         # a leg in floor seen free lately (walking) and one that stands where beams always end (a
         # door frame's end, with no map) are not one person's
@@ -178,6 +179,10 @@ class Pipeline:
         hidden = laser_legs.partner_hidden(xy, valid, sensor, legs[lone], self.p.legs) | \
             laser_legs.partner_beyond_edge(legs[lone], angle_min, angle_max, pose, self.p.legs)
         hidden = dict(zip(lone.tolist(), hidden.tolist(), strict=True))
+        against = laser_legs.partner_unseen_against(xy, valid, sensor, legs[lone], self.p.legs)
+        people = laser_legs.place_lone(people, members, widths, {k: h or a for (k, h), a in
+                                                                 zip(hidden.items(), against, strict=True)},
+                                       sensor, self.p.legs)
         dets = [Detection(float(x), float(y), LASER, LASER_STD, free=bool(f),
                           **_partly_hidden(len(m) == 1 and hidden[m[0]], x, y, sensor))
                 for (x, y), f, m in zip(people, free, members, strict=True)]
