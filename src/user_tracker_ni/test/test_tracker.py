@@ -762,3 +762,24 @@ def test_a_seated_person_whose_top_the_image_cuts_off_keeps_her_track_and_seat()
         tracker, track, _ = close_up(posture, at)
         assert any(tr is not track for tr in tracker.tracks), posture
         assert reid.distance(track.signature, RED) < 0.1, posture
+
+
+def test_two_tracks_on_one_still_persons_legs_are_merged_into_the_senior():
+    """A person standing still seen as two people 0.17 m apart (a leg each, each a confirmed track):
+    every leg pair near them lies within the laser's gate of both tracks, so the laser updates
+    neither. The junior track goes and the person keeps their id; people crossing (moving apart
+    the other way) are not merged (test_crossing_paths_keep_their_ids)."""
+    def run(params):
+        rng = np.random.default_rng(4)
+        tracker = Tracker(params)
+        for k in range(int(2 * RATE)):
+            tracker.update(k / RATE, [kinect(2.0, 0.0, RED, rng)], KINECT)
+        (first,) = tracker.published()
+        for k in range(int(2 * RATE), int(5 * RATE)):
+            tracker.update(k / RATE, [kinect(2.0, -0.085, RED, rng), kinect(2.0, 0.085, RED, rng)], KINECT)
+        return first, [tr for tr in tracker.tracks if tr.confirmed], tracker
+    first, confirmed, tracker = run(TrackerParams())
+    assert confirmed == [first] and first.pid is not None
+    assert tracker.dropped["merged into a nearer track (one person's)"] >= 1
+    _, confirmed, _ = run(TrackerParams(merge_distance=0.0))
+    assert len(confirmed) == 2

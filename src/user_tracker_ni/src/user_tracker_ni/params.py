@@ -167,6 +167,9 @@ TRACKER = ParamTable(
           "person held behind it, see the README)", unit="s", ge=0),
     Param("tracker/tentative_timeout", float, TrackerParams.tentative_timeout, "the same for a tentative track",
           unit="s", gt=0),
+    Param("tracker/merge_distance", float, TrackerParams.merge_distance,
+          "two confirmed tracks nearer than this are one person's (a leg each): the junior one goes (0: off)",
+          unit="m", ge=0, le=0.5),
     Param("tracker/id_wait", float, TrackerParams.id_wait,
           "a confirmed track waits this long out of the Kinect's view for its colour before it gets a provisional "
           "persistent id ...", unit="s", ge=0),
