@@ -14,6 +14,7 @@ import numpy as np
 from approach_me import geometry
 from florence_common import angles
 from florence_common import pose as pose2d
+from florence_eval.tour import travelled
 
 PERSONAL_SPACE = 0.45  # [m] centre to centre: the edge of the intimate zone (Hall)
 KEPT_RADIUS = 0.5  # [m] the followed position within this of the true person: the right person
@@ -104,7 +105,7 @@ def straightened(person, robot_xy, since):
     [s] as far from it as from ``robot_xy`` (x, y) [m], and on by the length of the way they walked since
     (back by what they walked before). A follower that keeps to their trail sees only this distance."""
     person = np.asarray(person, dtype=float).reshape(-1, 3)
-    walked = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(person[:, 1]), np.diff(person[:, 2])))])
+    walked = travelled(person[:, 1:3])
     at = np.interp(since, person[:, 0], walked)
     start = math.hypot(np.interp(since, person[:, 0], person[:, 1]) - robot_xy[0],
                        np.interp(since, person[:, 0], person[:, 2]) - robot_xy[1])
