@@ -146,11 +146,10 @@ def place_lone(people, members, widths, hidden, sensor_xy, params):
     ``lone_shift`` farther along the line of sight from ``sensor_xy``: a leg no wider than
     ``lone_width`` (``widths`` [L] of the legs) whose partner nothing nearer hides, the view's end
     does not cut off and no wall close behind may hide either (``hidden`` {leg index: bool}:
-    :func:`partner_hidden`, :func:`partner_beyond_edge`, :func:`partner_unseen_against`) has it in
-    its own shadow, behind it (a
-    person standing side-on, or in mid-stride across the line of sight), and their centre lies
-    between the two. Left at the leg, a person standing side-on 1 m from the laser was placed
-    0.105 m short of their centre (florence_sim's legs 0.2 m apart)."""
+    :func:`lone_partners`) has it in its own shadow, behind it (a person standing side-on, or in
+    mid-stride across the line of sight), and their centre lies between the two. Left at the leg, a
+    person standing side-on 1 m from the laser was placed 0.105 m short of their centre (florence_sim's
+    legs 0.2 m apart)."""
     people = np.array(people, dtype=float).reshape(-1, 2)
     if params.lone_shift <= 0:
         return people
@@ -189,20 +188,20 @@ def pair_legs(legs, params, members=False, groups=None):
 
 
 def _beside(xy, valid, sensor_xy, legs, params):
-    """[L, N] whether each valid scan point lies within ``max_pair_distance`` of each leg across the
-    line of sight (the bearings that far to either side at its range), the points' ranges [N] and the
-    legs' [L] (None, None, None without legs or points)."""
+    """[L, N] whether each valid scan point [N, 2] lies within ``max_pair_distance`` of each leg across
+    the line of sight (the bearings that far to either side at its range), the points' ranges [N], the
+    legs' [L] and the points (None, None, None, None without legs or points)."""
     legs = np.asarray(legs, dtype=float).reshape(-1, 2)
     pts = np.asarray(xy, dtype=float)[np.asarray(valid, bool)]
     if not len(legs) or not len(pts):
-        return None, None, None
+        return None, None, None, None
     sensor = np.asarray(sensor_xy, dtype=float)
     rel, leg_rel = pts - sensor, legs - sensor
     rng, leg_rng = np.hypot(rel[:, 0], rel[:, 1]), np.hypot(leg_rel[:, 0], leg_rel[:, 1])
     bearing, leg_bearing = np.arctan2(rel[:, 1], rel[:, 0]), np.arctan2(leg_rel[:, 1], leg_rel[:, 0])
     off = np.abs((bearing[None, :] - leg_bearing[:, None] + np.pi) % (2 * np.pi) - np.pi)  # [L, N]
     window = np.arctan2(params.max_pair_distance, np.maximum(leg_rng, 1e-6))[:, None]
-    return off <= window, rng, leg_rng
+    return off <= window, rng, leg_rng, pts
 
 
 def partner_hidden(xy, valid, sensor_xy, legs, params):
@@ -210,7 +209,7 @@ def partner_hidden(xy, valid, sensor_xy, legs, params):
     in scan order, as for :func:`find_legs`) lies within ``max_pair_distance`` of it across the
     line of sight (the bearings that far to either side at its range) and ``hidden_margin`` or
     more nearer the laser: what may hide its partner."""
-    beside, rng, leg_rng = _beside(xy, valid, sensor_xy, legs, params)
+    beside, rng, leg_rng, _ = _beside(xy, valid, sensor_xy, legs, params)
     if beside is None:
         return np.zeros(len(np.asarray(legs).reshape(-1, 2)), bool)
     return np.any(beside & (rng[None, :] <= leg_rng[:, None] - params.hidden_margin), axis=1)
@@ -222,15 +221,25 @@ def partner_unseen_against(xy, valid, sensor_xy, legs, params):
     beyond it or about as far (less than ``hidden_margin`` nearer): its partner may be there, seen but
     not taken for a leg (against a wall or a piece of furniture, or beside something it did not stand
     out from), rather than in its shadow."""
-    beside, rng, leg_rng = _beside(xy, valid, sensor_xy, legs, params)
+    beside, rng, leg_rng, pts = _beside(xy, valid, sensor_xy, legs, params)
     if beside is None:
         return np.zeros(len(np.asarray(legs).reshape(-1, 2)), bool)
     legs = np.asarray(legs, dtype=float).reshape(-1, 2)
-    pts = np.asarray(xy, dtype=float)[np.asarray(valid, bool)]
     own = np.hypot(pts[None, :, 0] - legs[:, None, 0], pts[None, :, 1] - legs[:, None, 1]) <= params.lone_width
     near = (rng[None, :] > leg_rng[:, None] - params.hidden_margin) & \
         (rng[None, :] < leg_rng[:, None] + params.max_pair_distance)
     return np.any(beside & near & ~own, axis=1)
+
+
+def lone_partners(xy, valid, lone_legs, angle_min, angle_max, laser_pose, params):
+    """For each lone leg [L, 2] of a scan (``xy``, ``valid`` as for :func:`find_legs`, its bearings
+    ``angle_min``..``angle_max`` [rad] from ``laser_pose`` 4x4): (whether its partner may be hidden by
+    something nearer or beyond the view's end: :func:`partner_hidden`, :func:`partner_beyond_edge`;
+    whether it may be seen but not taken for a leg: :func:`partner_unseen_against`), [L] each."""
+    sensor = np.asarray(laser_pose)[:2, 3]
+    hidden = partner_hidden(xy, valid, sensor, lone_legs, params) | \
+        partner_beyond_edge(lone_legs, angle_min, angle_max, laser_pose, params)
+    return hidden, partner_unseen_against(xy, valid, sensor, lone_legs, params)
 
 
 def in_view(points, angle_min, angle_max, laser_pose, margin=0.1):
@@ -274,8 +283,7 @@ def detect(ranges, angle_min, angle_increment, range_min, range_max, laser_pose,
     legs, widths = find_legs(xy, valid, sensor, params, widths=True)
     people, members = pair_legs(legs, params, members=True)
     lone = [m[0] for m in members if len(m) == 1]
-    angle_max = angle_min + angle_increment * (len(ranges) - 1)
-    unsure = partner_hidden(xy, valid, sensor, legs[lone], params) | \
-        partner_beyond_edge(legs[lone], angle_min, angle_max, laser_pose, params) | \
-        partner_unseen_against(xy, valid, sensor, legs[lone], params)
-    return legs, place_lone(people, members, widths, dict(zip(lone, unsure.tolist(), strict=True)), sensor, params)
+    hidden, unseen = lone_partners(xy, valid, legs[lone], angle_min, angle_min + angle_increment * (len(ranges) - 1),
+                                   laser_pose, params)
+    return legs, place_lone(people, members, widths, dict(zip(lone, (hidden | unseen).tolist(), strict=True)), sensor,
+                            params)

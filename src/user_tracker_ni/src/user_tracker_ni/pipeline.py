@@ -176,13 +176,10 @@ class Pipeline:
         free = [all(leg_free[k] for k in m) for m in members]
         lone = np.array([m[0] for m in members if len(m) == 1], dtype=int)
         # a lone leg whose partner something nearer may hide, or the end of the laser's view
-        hidden = laser_legs.partner_hidden(xy, valid, sensor, legs[lone], self.p.legs) | \
-            laser_legs.partner_beyond_edge(legs[lone], angle_min, angle_max, pose, self.p.legs)
+        hidden, unseen = laser_legs.lone_partners(xy, valid, legs[lone], angle_min, angle_max, pose, self.p.legs)
+        people = laser_legs.place_lone(people, members, widths, dict(zip(lone.tolist(), (hidden | unseen).tolist(),
+                                                                         strict=True)), sensor, self.p.legs)
         hidden = dict(zip(lone.tolist(), hidden.tolist(), strict=True))
-        against = laser_legs.partner_unseen_against(xy, valid, sensor, legs[lone], self.p.legs)
-        people = laser_legs.place_lone(people, members, widths, {k: h or a for (k, h), a in
-                                                                 zip(hidden.items(), against, strict=True)},
-                                       sensor, self.p.legs)
         dets = [Detection(float(x), float(y), LASER, LASER_STD, free=bool(f),
                           **_partly_hidden(len(m) == 1 and hidden[m[0]], x, y, sensor))
                 for (x, y), f, m in zip(people, free, members, strict=True)]
