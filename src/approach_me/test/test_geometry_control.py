@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from approach_me.control import DONE, GAINS, Approacher, Request
+from approach_me.control import ARRIVE_SHARE, DONE, DRIVE, GAINS, TURN, Approacher, Request
 
 from approach_me import geometry
 from florence_common.angles import diff
@@ -127,9 +127,33 @@ def test_closed_loop_reaches_the_pose(name, p2r, r2p, start):
     robot, least, a, t = simulate(req, robot=start)
     assert a.phase == DONE, f"{name}: not reached in {t:.0f} s"
     pos, head = check(req, robot, start=start[:2])
-    assert pos < 0.06 and head < 0.08, f"{name}: {pos:.3f} m, {head:.3f} rad"
+    assert pos < 0.025 and head < 0.08, f"{name}: {pos:.3f} m, {head:.3f} rad"
     assert least > 0.6 - 0.05, f"{name}: passed {least:.2f} m from the person"
     assert a.peak_bearing < math.radians(85), f"{name}: the person {a.peak_bearing:.2f} rad off the heading"
+
+
+def test_phase_one_drives_on_inside_the_tolerance_while_it_closes_in():
+    """Phase 1 ends within ARRIVE_SHARE of xy_tolerance, or once the goal is abeam or behind: not on
+    entering the tolerance, where the robot stopped up to 0.067 m short (bench/enablers.py, 20 of 20 runs
+    short along the line from the person). Entering the tolerance still heading on, it drives on; with the
+    goal abeam it turns at once, not round to it."""
+    req = Request(0.6, 0.0, 0.0, 0.3, 1.0)
+    direction = geometry.approach_direction(P, R0, req.p2r)
+    gx, gy = geometry.goal_position(P, direction, req.distance)
+    toward = math.atan2(gy - R0[1], gx - R0[0])
+    a = Approacher(GAINS.defaults(), req, P, R0, 10.0)
+    near = (gx - 0.04 * math.cos(toward), gy - 0.04 * math.sin(toward), toward)  # 0.04 m short, heading on
+    out = a.step(near, P)
+    assert out.phase == DRIVE and out.v > 0.0, "it stopped 0.04 m short"
+    abeam = (gx - 0.03 * math.sin(toward), gy + 0.03 * math.cos(toward), toward)  # 0.03 m to the side
+    assert Approacher(GAINS.defaults(), req, P, R0, 10.0).step(abeam, P).phase in (TURN, DONE)
+    radial = []
+    for p2r in (0.0, 0.6, -1.2, 2.5):
+        req = Request(0.6, p2r, 0.0, 0.3, 1.0)
+        robot, _, a, _ = simulate(req)
+        assert a.phase == DONE
+        radial.append(math.dist(robot[:2], P) - 0.6)
+    assert max(abs(r) for r in radial) < ARRIVE_SHARE * 0.05 + 0.005, f"{np.round(radial, 3)} m from the distance"
 
 
 def test_backs_up_to_a_goal_just_behind():
