@@ -32,8 +32,8 @@ def transforms():
     return [odom, laser]
 
 
-def laser_scan(stamp):
-    """An upside-down laser's scan of a wall at x = WALL (base frame) over -90..90 degrees."""
+def laser_scan(stamp, wall=WALL):
+    """An upside-down laser's scan of a wall at x = ``wall`` (base frame) over -90..90 degrees."""
     from sensor_msgs.msg import LaserScan
 
     msg = LaserScan()
@@ -44,7 +44,7 @@ def laser_scan(stamp):
     a = msg.angle_min + msg.angle_increment * np.arange(361)
     # upside down, beam angle a points at -a in the base frame: a wall straight ahead is symmetric
     with np.errstate(divide="ignore"):
-        r = np.where(np.cos(a) > 0.05, (WALL - LASER_X) / np.cos(a), np.inf)
+        r = np.where(np.cos(a) > 0.05, (wall - LASER_X) / np.cos(a), np.inf)
     msg.ranges = np.minimum(r, np.inf).tolist()
     return msg
 
@@ -136,6 +136,59 @@ def test_stops_into_a_wall_and_lets_the_robot_back_away_and_turn(monitor):
         wait_for(lambda: send(rospy, cmd, out, states, 0.3, 0.0)[2].state == "slow", 10, what="teleop's slowed")
     finally:
         active.unregister()
+
+
+def test_a_command_whose_sender_went_quiet_is_stopped_when_a_scan_shows_a_wall(ros_master, rospy_node):
+    """A command older than ~recheck_window is not sent again slowed (that would restart velocity_filter's
+    command timeout) but, while velocity_filter still drives it (~stale_window), a new scan that says it must
+    slow stops it: move_base starved of CPU sent 0.49 m/s and went quiet, and the robot drove on into a person
+    (bench/nav.py under load 10-22, 30 Nov). Its own node: ~stale_window 5 s, so that the test's waits are
+    far from the window's ends on a loaded machine."""
+    import rospy
+    from geometry_msgs.msg import Twist
+    from sensor_msgs.msg import LaserScan
+
+    from collision_monitor.msg import MonitorState
+
+    proc = rosrun(ros_master, "collision_monitor", "collision_monitor_node", "__name:=cm_stale",
+                  "cmd_vel_in:=/test_cm2/in", "cmd_vel:=/test_cm2/out", "_stale_window:=5.0",
+                  "_sources:=[{name: laser, topic: /test_cm2/scan, timeout: 5.0, required: true, self_range: 0.18}]")
+    states = []
+    sub = rospy.Subscriber("/cm_stale/state", MonitorState, states.append)
+    cmd = rospy.Publisher("/test_cm2/in", Twist, queue_size=10)
+    scans = rospy.Publisher("/test_cm2/scan", LaserScan, queue_size=10)
+    wall = [3.0]
+    done = threading.Event()
+
+    def feed():
+        while not done.is_set():
+            scans.publish(laser_scan(rospy.Time.now(), wall[0]))
+            time.sleep(0.1)
+
+    feeder = threading.Thread(target=feed, daemon=True)
+    try:
+        wait_for(lambda: cmd.get_num_connections() and sub.get_num_connections() and scans.get_num_connections(), 30,
+                 what="connections to the second collision_monitor_node")
+        feeder.start()
+        wait_for(lambda: send(rospy, cmd, [], states, 0.3, 0.0)[2].state == "clear", 15,
+                 what="the wall 3 m ahead to leave the command clear")
+        n = len(states)
+        time.sleep(1.0)  # the sender quiet, the command older than ~recheck_window (0.3 s)
+        assert len(states) == n, "nothing sent again while the way stays clear"
+        wall[0] = WALL
+        wait_for(lambda: len(states) > n, 3.5, what="a stop once the wall is 0.35 m ahead")
+        state = states[n]
+        assert state.state == "stop" and (state.output.linear.x, state.output.angular.z) == (0.0, 0.0), state
+        assert "the last command" in state.reason and "s old" in state.reason, state.reason
+        time.sleep(0.5)
+        assert len(states) == n + 1, "stopped once"
+    finally:
+        done.set()
+        if feeder.is_alive():
+            feeder.join()
+        for handle in (sub, cmd, scans):
+            handle.unregister()
+        stop_all(proc)
 
 
 def test_a_silent_laser_stops_linear_motion_a_silent_kinect_is_reported(monitor):

@@ -22,7 +22,8 @@ ROS Services:
 ROS Publishers:
     cmd_vel (geometry_msgs/Twist): each command as judged, at once (velocity_filter's input); and,
         when a new scan shows that the last command (younger than ~recheck_window) must slow down
-        more, that command again as judged now. One zero Twist on shutdown.
+        more, that command again as judged now; when the last command is older than that (younger
+        than ~stale_window), a stop. One zero Twist on shutdown.
     ~state (collision_monitor/MonitorState): the judgement of every command published.
     /diagnostics: the state, the commands slowed and stopped, each source's age, points, time to
         take a scan or image (p50 / p99) and problems, the time to judge a command (p50 / p99).
@@ -88,6 +89,9 @@ PARAMS = ParamTable(
     Param("min_speed", float, _D.min_speed, "an allowed speed below this stops the linear motion", unit="m/s", ge=0),
     Param("recheck_window", float, 0.3, "on each scan, the last command, when younger than this, is judged again and "
           "sent again if it must slow down more (0: never)", unit="s", ge=0),
+    Param("stale_window", float, 1.0, "... and when older than recheck_window but younger than this (velocity_filter's "
+          "command_timeout: it drives the last command that long), stopped instead, if it must slow down (its sender "
+          "went quiet: move_base starved of CPU)", unit="s", ge=0),
     Param("tf_timeout", float, 0.5, "how long a scan waits for its transform before it is skipped", unit="s", ge=0,
           le=2),
 )
@@ -112,6 +116,7 @@ class CollisionMonitorNode:
         self.active_input = ""
         self.fixed_frame, self.base_frame = p.fixed_frame, p.base_frame
         self.recheck_window = p.recheck_window
+        self.stale_window = p.stale_window
         self.lock = threading.Lock()
         self.last = None  # (time [s], v in, w in, v out) of the last command
         self.counts = Counter()
@@ -125,7 +130,8 @@ class CollisionMonitorNode:
         self.diag = Diagnostics("collision_monitor")
         self.diag.add("Collision monitor", self._diagnose)
         self.sources = ScanSources(specs, self.fixed_frame, self.tf_buffer, p.tf_timeout,
-                                   on_scan=self._on_scan if self.recheck_window > 0 else None, log_prefix=LOG)
+                                   on_scan=self._on_scan if max(self.recheck_window, self.stale_window) > 0 else None,
+                                   log_prefix=LOG)
         self.forget_srv = rospy.Service("~forget", Trigger, self._forget)
         self.active_sub = rospy.Subscriber("active_input", String, self._on_active, queue_size=1)
         self.sub = rospy.Subscriber("cmd_vel_in", Twist, self.on_command, queue_size=10, tcp_nodelay=True)
@@ -203,10 +209,14 @@ class CollisionMonitorNode:
             if self.last is None:
                 return
             t, msg, v_out = self.last
-            if msg.linear.x == 0.0 or rospy.get_time() - t > self.recheck_window:
+            age = rospy.get_time() - t
+            if msg.linear.x == 0.0 or age > max(self.recheck_window, self.stale_window):
                 return
             d, reason = self.judge(msg.linear.x, msg.angular.z)
             if abs(d.v) < abs(v_out) - 1e-3:
+                if age > self.recheck_window:  # its sender went quiet: velocity_filter still drives it
+                    d = dataclasses.replace(d, state=STOP, v=0.0, w=0.0, scale=0.0)
+                    reason = f"stopped: the last command, {age:.2f} s old, would now be {reason}"
                 self._publish(msg, d, reason + " (judged again on a new scan)")
                 self._account(d, reason)
                 self.last = (t, msg, d.v)
