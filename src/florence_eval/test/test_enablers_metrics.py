@@ -64,3 +64,25 @@ def test_a_perfect_follower_closes_in_on_a_person_standing_farther_and_stops_at_
     assert out["max_error_m"] == pytest.approx(0.5, abs=1e-6)  # at the start
     last = em.ideal_following(person, (0.0, 0.0), 1.0, 0.0, 10.0, dt=0.01)
     assert last["mean_distance_m"] < 1.15 and out["mean_distance_m"] < 1.15
+
+
+def test_the_monitors_first_hold_is_placed_in_the_map():
+    """EnablersSession.monitor_held (no master: the session's logs set by hand): the first slowed, stopped
+    or blind judgement since the trial's start, its nearest point through the robot's true pose."""
+    import math
+    import threading
+
+    from florence_eval.enablers_session import EnablersSession
+
+    session = EnablersSession.__new__(EnablersSession)  # its logs only: no subscribers
+    session.lock = threading.Lock()
+    session.monitor = [(1.0, "stop", 0.3, 0.0, "before the trial", 0.4, 0.0),
+                       (5.0, "clear", 0.3, 0.3, "clear", math.nan, math.nan),
+                       (6.0, "slow", 0.3, 0.1, "slowed to 33%", 0.5, -0.1),
+                       (7.0, "stop", 0.3, 0.0, "stopped", 0.3, 0.0)]
+    track = np.array([[4.0, 1.0, 2.0, 0.0], [6.0, 1.0, 2.0, np.pi / 2], [7.0, 1.0, 2.2, np.pi / 2]])
+    held = session.monitor_held(4.5, track)
+    assert held["state"] == "slow" and held["reason"] == "slowed to 33%" and held["t"] == 6.0
+    assert held["nearest"] == pytest.approx([1.1, 2.5])  # 0.5 ahead, 0.1 to the right of a robot facing north
+    session.monitor = session.monitor[:2]
+    assert session.monitor_held(4.5, track) is None

@@ -74,7 +74,7 @@ class EnablersSession(PeopleSession):
 
         super().__init__(tracked_topic="/tracked_users", cmd_vel=TELEOP, filtered_topic="/filtered_tracked_users")
         self.collisions = 0
-        self.monitor = []  # (t, state, v in, v out, reason)
+        self.monitor = []  # (t, state, v in, v out, reason, nearest x, y in the robot frame)
         self.states = {"follow_me": [], "approach_me": []}  # (t, text)
         self.commands = {"mux": [], "monitor": [], "filter": []}  # (t [sim s], wall [s], v, w)
         self.feedback = []  # (t, action, x, y) in the robot frame
@@ -102,7 +102,8 @@ class EnablersSession(PeopleSession):
 
     def _on_monitor(self, msg):
         with self.lock:
-            self.monitor.append((self.sim_now(), msg.state, msg.command.linear.x, msg.output.linear.x, msg.reason))
+            self.monitor.append((self.sim_now(), msg.state, msg.command.linear.x, msg.output.linear.x, msg.reason,
+                                 msg.nearest.x, msg.nearest.y))
 
     def _on_state(self, msg, name):
         with self.lock:
@@ -336,7 +337,24 @@ class EnablersSession(PeopleSession):
         return {"state": state, "text": text, "position_error_m": pos, "heading_error_rad": head,
                 "collisions": self.collisions - collisions, "seconds": self.sim_now() - t0,
                 "least_distance_m": least, "robot": list(robot0), "person": list(person0), "goal": list(goal),
-                "distance": distance, "p2r": p2r, "r2p": r2p, "robot_track": track[::5].round(3).tolist()}
+                "distance": distance, "p2r": p2r, "r2p": r2p, "robot_track": track[::5].round(3).tolist(),
+                "monitor_held": self.monitor_held(t0, track) if state != "SUCCEEDED" else None}
+
+    def monitor_held(self, since, track):
+        """The collision monitor's first judgement since ``since`` that slowed or stopped a command, with the
+        point that made it (placed in the map through the robot's true pose ``track`` rows (t, x, y, yaw)):
+        {"t", "state", "reason", "nearest": [x, y]}; None when it held nothing back. A bench stop 54 had to
+        probe for: a failed approach's "no progress" was a phantom where the world has nothing."""
+        with self.lock:
+            held = next((r for r in self.monitor if r[0] >= since and r[1] in ("slow", "stop", "blind")), None)
+        if held is None or not len(track):
+            return None
+        k = min(int(np.searchsorted(track[:, 0], held[0])), len(track) - 1)
+        x, y, yaw = track[k, 1:4]
+        nx, ny = held[5], held[6]
+        nearest = [round(float(x + math.cos(yaw) * nx - math.sin(yaw) * ny), 3),
+                   round(float(y + math.sin(yaw) * nx + math.cos(yaw) * ny), 3)]
+        return {"t": round(held[0], 2), "state": held[1], "reason": held[4], "nearest": nearest}
 
     # --- logs ------------------------------------------------------------------------------------------
     def truth_log(self, since=0.0, until=np.inf):
