@@ -64,6 +64,14 @@ def monitor_judge_time(timeout=10.0):
     return None
 
 
+def held_text(held):
+    """"; the collision monitor first held it back ..." for a failed approach's ``monitor_held`` ("" for None)."""
+    if not held:
+        return ""
+    return (f"; the collision monitor first held it back at {held['t']} s: {held['reason']}, nearest point "
+            f"({held['nearest'][0]:.2f}, {held['nearest'][1]:.2f}) in the map")
+
+
 def summary(follows, approaches, latency_ms, judge):
     out = {}
     for speed in sorted({f["speed"] for f in follows}):
@@ -98,10 +106,8 @@ def summary(follows, approaches, latency_ms, judge):
                                          for a in ok),
         "collisions": int(sum(a["collisions"] for a in approaches)),
         "least_person_distance_m": float(min(a["least_distance_m"] for a in approaches)) if approaches else None,
-        "failures": [f"{a['state']}: {a['text']}" + (f" (the monitor held it back: {a['monitor_held']['reason']}, "
-                                                      f"nearest point {a['monitor_held']['nearest']} in the map)"
-                                                      if a.get("monitor_held") else "")
-                     for a in approaches if a["state"] != "SUCCEEDED"],
+        "failures": [f"{a['state']}: {a['text']}{held_text(a.get('monitor_held'))}" for a in approaches
+                     if a["state"] != "SUCCEEDED"],
     }
     from florence_eval.enablers_metrics import percentiles
 
@@ -161,11 +167,9 @@ def main():
                 continue
             approaches.append(result)
             load.append(os.getloadavg()[0])
-            held = result["monitor_held"]
             print(f"approach {k + 1}: {result['state']} {result['position_error_m']:.3f} m, "
                   f"{result['heading_error_rad']:.3f} rad, {result['seconds']:.0f} s ({result['text']})"
-                  + (f"; the collision monitor first held it back at {held['t']} s: {held['reason']}, nearest point "
-                     f"({held['nearest'][0]:.2f}, {held['nearest'][1]:.2f}) in the map" if held else ""), flush=True)
+                  f"{held_text(result['monitor_held'])}", flush=True)
         latency = enablers_metrics.latency(session.commands_log("mux"), session.commands_log("monitor"))
         judge = monitor_judge_time()
         result = summary(follows, approaches, 1e3 * latency, judge)

@@ -350,10 +350,7 @@ class EnablersSession(PeopleSession):
         if held is None or not len(track):
             return None
         k = min(int(np.searchsorted(track[:, 0], held[0])), len(track) - 1)
-        x, y, yaw = track[k, 1:4]
-        nx, ny = held[5], held[6]
-        nearest = [round(float(x + math.cos(yaw) * nx - math.sin(yaw) * ny), 3),
-                   round(float(y + math.sin(yaw) * nx + math.cos(yaw) * ny), 3)]
+        nearest = pose2d.transform_points(track[k, 1:4], [held[5:7]])[0].round(3).tolist()
         return {"t": round(held[0], 2), "state": held[1], "reason": held[4], "nearest": nearest}
 
     # --- logs ------------------------------------------------------------------------------------------
