@@ -89,6 +89,40 @@ def test_the_person_is_carried_along_and_lapses_when_the_track_is_gone():
     assert int(c.costs.max()) == 0
 
 
+def test_a_person_out_of_view_is_held_until_the_sensors_look_and_do_not_find_them():
+    layer = ProxemicLayer(keep_time=8.0, unseen_keep_time=30.0, view_angle=math.radians(240.0), view_range=4.0)
+    layer.set_people([Person(2.0, 0.0, 0.0, 0.0, seen=0.0, id=1)], stamp=0.0)
+    layer.set_people([], stamp=1.0)  # the tracker dropped them: the robot turned its back
+    assert layer.observe(9.0, 0.0, 0.0, math.pi) == 1  # past keep_time, behind the robot: held
+    assert layer.current(9.0)[1] == [1]
+    layer.set_people([], stamp=9.5)
+    assert layer.observe(20.0, 0.0, 0.0, 0.0, hidden=lambda *line: True) == 1  # in the view, behind a wall
+    assert layer.current(20.0)[1] == [1]
+    assert layer.observe(20.2, 0.0, 0.0, math.pi / 2.0, hidden=lambda *line: False) == 0  # looked: gone
+    assert layer.current(20.2)[1] == []
+    # never looked at: held unseen_keep_time after they were last seen, then gone
+    layer.set_people([Person(2.0, 0.0, 0.0, 0.0, seen=40.0, id=2)], stamp=40.0)
+    assert layer.observe(60.0, -3.0, 0.0, 0.0) == 1  # 5 m away: beyond view_range
+    assert layer.observe(70.1, -3.0, 0.0, 0.0) == 0
+    assert layer.current(70.1)[1] == []
+
+
+def test_without_unseen_keep_time_a_lost_person_lapses_after_keep_time_wherever_they_are():
+    layer = ProxemicLayer(keep_time=8.0)
+    layer.set_people([Person(2.0, 0.0, 0.0, 0.0, seen=0.0, id=1)], stamp=0.0)
+    assert layer.observe(9.0, 0.0, 0.0, math.pi) == 0
+    assert layer.current(9.0)[1] == []
+
+
+def test_people_held_out_of_view_can_be_released():
+    layer = ProxemicLayer(keep_time=1.0, unseen_keep_time=30.0, lethal_radius=0.3)
+    layer.set_people([Person(1.0, 0.0, 0.0, 0.0, seen=0.0, id=1), Person(-1.0, 0.0, 0.0, 0.0, seen=4.5, id=2)],
+                     stamp=4.5)
+    layer.observe(5.0, 0.0, 0.0, math.pi)  # 1 behind the robot (held), 2 in front and tracked
+    assert layer.release_unseen() == 1
+    assert layer.current(5.0)[1] == [2]
+
+
 def test_the_person_the_robot_is_sent_to_stands_while_announced_tracked_or_not():
     layer = ProxemicLayer(keep_time=8.0, lethal_radius=0.3)
     layer.set_people([Person(1.0, 0.0, 0.0, 0.0, seen=1.0, id=7)], stamp=1.0)
@@ -450,6 +484,24 @@ def test_keepout_of_another_resolution_is_placed_by_its_own_origin():
     assert lay.costmap.cost_at(1.25, 1.1) == FREE_SPACE
     assert int(np.count_nonzero(lay.costmap.costs == LETHAL_OBSTACLE)) == 16  # 4 x 4 cells of 5 cm
     assert KeepoutLayer().has_map is False
+
+
+def test_a_person_behind_a_wall_of_the_map_is_held_and_forgotten_on_demand():
+    proxemic = {"keep_time": 1.0, "unseen_keep_time": 30.0, "lethal_radius": 0.3}
+    lay = LayeredCostmap(60, 40, 0.05, 0.0, 0.0, static_map=True, inflation_radius=0.0, proxemic=proxemic)
+    static = np.zeros((40, 60), dtype=np.int8)
+    static[:, 30] = 100  # a wall at x 1.5
+    lay.set_static_map(static.ravel(), 60, 40, 0.05, 0.0, 0.0)
+    assert lay.map_hides(0.5, 1.0, 2.5, 1.0) and not lay.map_hides(0.5, 1.0, 1.2, 1.0)
+    assert not lay.map_hides(2.0, 1.0, 2.5, 1.0)
+    lay.people.set_people([Person(2.5, 1.0, 0.0, 0.0, seen=0.0, id=1)], stamp=0.0)
+    lay.update(0.5, 1.0, 0.0, now=5.0)  # facing the person, 2 m away, the wall between
+    assert lay.costmap.cost_at(2.5, 1.0) == LETHAL_OBSTACLE
+    assert lay.forget_unseen_people() == 1
+    assert lay.costmap.cost_at(2.5, 1.0) == FREE_SPACE
+    lay.people.set_people([Person(1.2, 1.0, 0.0, 0.0, seen=0.0, id=2)], stamp=0.0)
+    lay.update(0.5, 1.0, 0.0, now=5.0)  # on the robot's side of the wall, in view: lapsed
+    assert lay.costmap.cost_at(1.2, 1.0) == FREE_SPACE and lay.forget_unseen_people() == 0
 
 
 def test_map_only_and_unmapped_marks():

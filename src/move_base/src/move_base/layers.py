@@ -72,6 +72,7 @@ def bresenham_cells(x0, y0, x1, y1, include_end=True):
 
 # --- footprint cost (base_local_planner CostmapModel) -------------------------------------------
 # a point robot (fewer than 3 footprint points): the centre cell's cost, or these verdicts
+PERSON_BODY = 0.25  # [m] the end of a line of sight to a person's centre left out (map_hides)
 _POINT_ROBOT_VERDICT = {NO_INFORMATION: -2.0, LETHAL_OBSTACLE: -1.0, INSCRIBED_INFLATED_OBSTACLE: -1.0}
 
 
@@ -784,12 +785,43 @@ class LayeredCostmap:
             followed = self.people.followed(now, self._robot)
             self.obstacles.clear_discs(np.column_stack([followed[:, :2], np.full(len(followed),
                                                                                    self.people.trail_radius)]))
+        if self.people is not None and self.people.unseen_keep_time > 0.0 and now is not None:
+            self.people.observe(now, float(robot_x), float(robot_y), robot_yaw, self.map_hides)
         self._under_robot = None
         if robot_yaw is not None:
             self._under_robot = polygon_cells(c, transform_footprint(self.footprint, robot_x, robot_y, robot_yaw))
             if self.obstacles.grid is not None:  # the same geometry as the master grid
                 self.obstacles.clear_cells(*self._under_robot)
         self._recombine()
+
+    def forget_unseen_people(self):
+        """Forget the people the proxemic layer holds out of the sensors' view (its
+        unseen_keep_time) and rebuild the master grid; returns how many there were (0: nothing
+        changed)."""
+        if self.people is None:
+            return 0
+        held = self.people.release_unseen()
+        if held:
+            self._recombine()
+        return held
+
+    def map_hides(self, x0, y0, x1, y1, near=PERSON_BODY):
+        """Whether the static map has a lethal cell on the line from (x0, y0) to (x1, y1) [m],
+        the last ``near`` [m] left out (the person standing there, beside a wall perhaps): the
+        sensors at (x0, y0) cannot see a person at (x1, y1) through a wall. False without a map
+        in the grid's frame, or for a line leaving the map."""
+        if self.static is None or self.static.grid is None or self.static.pose is not None:
+            return False
+        g = self.static.grid
+        length = math.hypot(x1 - x0, y1 - y0)
+        if length <= near:
+            return False
+        end = 1.0 - near / length
+        start, stop = g.world_to_map(x0, y0), g.world_to_map(x0 + (x1 - x0) * end, y0 + (y1 - y0) * end)
+        if start is None or stop is None:
+            return False
+        _, mx, my = bresenham_cells(*start, *stop)
+        return bool(np.any(g.costs[my, mx] == LETHAL_OBSTACLE))
 
     def reset_layers(self, now=None):
         """Every layer back to its start (ROS resetLayers): obstacles forgotten, the master grid

@@ -605,6 +605,12 @@ class MoveBaseNode:
         with costmap.lock:
             result = self.global_planner.make_plan(costmap.costmap, start, goal, tolerance,
                                                    start_clearance=costmap.inscribed_radius)
+            if not result.ok and costmap.layered.forget_unseen_people():
+                # people remembered out of view (proxemic unseen_keep_time) may be gone: no plan with
+                # them is no reason to wait or give up
+                rospy.loginfo(LOG + "no plan round the people remembered out of view: forgotten, planning again")
+                result = self.global_planner.make_plan(costmap.costmap, start, goal, tolerance,
+                                                       start_clearance=costmap.inscribed_radius)
             if not result.ok:
                 result.permanent = goal_is_hopeless(costmap.layered, goal[0], goal[1])
         return result
