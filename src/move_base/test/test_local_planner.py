@@ -712,6 +712,37 @@ def test_turn_to_plan_takes_the_longer_way_when_the_shorter_collides_and_keeps_i
     assert ok and reason == TURNING_TO_PLAN and cmd[2] > 0.0
 
 
+def _via(heading, goal=(3.0, 3.0)):
+    """A plan from (2, 2) 0.8 m toward ``heading`` [rad], then on to ``goal`` (yaw 0 there)."""
+    mx, my = 2.0 + 0.8 * math.cos(heading), 2.0 + 0.8 * math.sin(heading)
+    return np.vstack([line_plan(2.0, 2.0, mx, my), line_plan(mx, my, *goal, yaw_end=0.0)[1:]])
+
+
+def test_turn_to_plan_turns_back_when_a_replan_swings_the_plan_round_behind_it():
+    """A replan to the same goal that swings the plan round behind a turn under way (a person seen,
+    another way round) leaves that turn's way more than a half turn and 0.5 rad to go: the other way
+    is taken. In bench/nav.py seed 1 a turn of 2.45 rad so went on round to 5.85 rad (5.6 s). Less
+    than that left: the turn keeps its way."""
+    cm = Costmap2D(100, 100, 0.05)
+    lp = planner(acc_lim_th=1.0, turn_to_plan_angle=1.5)
+    plan = _via(math.radians(100.0))
+    lp.set_plan(plan)
+    ok, cmd, reason = lp.compute_velocity(cm, (2.0, 2.0, 0.0), (0.0, 0.0, 0.0), plan)
+    assert ok and reason == TURNING_TO_PLAN and cmd[2] > 0.0
+    turned = (2.0, 2.0, math.radians(30.0))
+    behind = _via(math.radians(-70.0))  # 100 degrees right of the robot now: 260 degrees on the left
+    lp.set_plan(behind)
+    ok, cmd, reason = lp.compute_velocity(cm, turned, (0.0, 0.0, 0.8), behind)
+    assert ok and reason == TURNING_TO_PLAN and cmd[2] < 0.0
+    lp = planner(acc_lim_th=1.0, turn_to_plan_angle=1.5)
+    lp.set_plan(plan)
+    lp.compute_velocity(cm, (2.0, 2.0, 0.0), (0.0, 0.0, 0.0), plan)
+    near_behind = _via(math.radians(-130.0))  # 160 degrees right: 200 degrees on the left, kept
+    lp.set_plan(near_behind)
+    ok, cmd, reason = lp.compute_velocity(cm, turned, (0.0, 0.0, 0.8), near_behind)
+    assert ok and reason == TURNING_TO_PLAN and cmd[2] > 0.0
+
+
 def test_turn_to_plan_turns_once_per_place():
     """Once a turn toward the plan has ended, the next waits until the robot has moved 0.25 m: where
     the rollouts steer off the plan's next poses (a corner cut), the two turned the robot to and fro."""

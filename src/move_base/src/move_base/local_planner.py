@@ -32,6 +32,9 @@ _AT_GOAL = 0.05
 TURN_TO_PLAN_LOOKAHEAD = 0.4
 # turn_to_plan_angle: after such a turn, the next only once the robot has moved this far [m]
 TURN_TO_PLAN_AGAIN = 0.25
+# turn_to_plan_angle: a turn under way goes on its way unless the plan swung round behind it and that
+# way has more than a half turn and this [rad] left (then the other way, if free)
+TURN_TO_PLAN_REVERSE = 0.5
 # [m] turn_before_tolerance starts only when the simulated stop is this far inside xy_goal_tolerance
 _EARLY_MARGIN = 0.05
 # fractions of acc_lim_x that turn_before_tolerance may brake at: braking gently from farther out
@@ -404,8 +407,11 @@ class LocalPlanner:
         The turn keeps its way until it ends: the shorter one, or the longer one when only that is
         free. (Replanning once a second resets the rollouts' oscillation flags, and a robot in a
         doorway facing away from its plan swung to and fro between arcs the collision monitor
-        stopped.) One turn per place: where the rollouts steer for the local goal off the plan's
-        next poses (a corner cut), the two turned the robot back and forth."""
+        stopped.) Unless a replan swings the plan round behind the turn so that its way has more
+        than a half turn and TURN_TO_PLAN_REVERSE left: then the other way, if it is free (kept,
+        a turn of 2.45 rad went on round to 5.85 rad, 5.6 s, in bench/nav.py seed 1). One turn per
+        place: where the rollouts steer for the local goal off the plan's next poses (a corner cut),
+        the two turned the robot back and forth."""
         p = self.params
         if p.turn_to_plan_angle <= 0.0 or p.holonomic_robot:
             return None
@@ -420,7 +426,11 @@ class LocalPlanner:
         limit = p.turn_to_plan_angle / 3.0 if self._turn_to_plan else p.turn_to_plan_angle
         if math.hypot(tx - x, ty - y) < _AT_GOAL or abs(err) <= limit:
             return self._end_turn_to_plan(x, y)
-        ways = (self._turn_to_plan,) if self._turn_to_plan else (_sign(err), -_sign(err))
+        ways = (_sign(err), -_sign(err))
+        if self._turn_to_plan:
+            way = self._turn_to_plan
+            left = err if _sign(err) == way else err + way * 2.0 * math.pi
+            ways = (-way, way) if abs(left) > math.pi + TURN_TO_PLAN_REVERSE else (way,)
         for way in ways:
             sweep = err if _sign(err) == way else err + way * 2.0 * math.pi  # signed, ``way`` round
             cmd = self._turn_on_the_spot(costmap, x, y, yaw, vx, vth, sweep)
