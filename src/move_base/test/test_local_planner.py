@@ -495,6 +495,26 @@ def test_florence_approach_is_faster_and_ends_within_the_tolerances():
 EARLY = {**FLORENCE, "turn_before_tolerance": True}
 
 
+def test_giving_way_ends_at_the_place_without_the_turn_to_the_goal_yaw():
+    cm = Costmap2D(100, 100, 0.1)
+    plan = line_plan(3.0, 5.0, 5.0, 5.0, yaw_end=1.5)
+    lp = planner(**EARLY)
+    lp.set_plan(plan, giving_way=True)
+    ok, cmd, reason = lp.compute_velocity(cm, (4.9, 5.0, 0.0), (0.3, 0.0, 0.0), plan)
+    assert ok and cmd == (0.0, 0.0, 0.0) and lp.is_goal_reached() and reason.startswith("goal reached")
+    # outside xy_goal_tolerance it drives on, and it does not start the turn before the tolerance
+    lp.set_plan(plan, giving_way=True)
+    ok, cmd, reason = lp.compute_velocity(cm, (4.6, 5.0, 0.0), (0.5, 0.0, 0.0), plan)
+    assert ok and cmd[0] > 0.0 and reason != "braking and turning to the goal yaw" and not lp.is_goal_reached()
+    # the goal itself: the turn to its yaw, begun before the tolerance
+    lp.set_plan(plan)
+    ok, cmd, reason = lp.compute_velocity(cm, (4.6, 5.0, 0.0), (0.5, 0.0, 0.0), plan)
+    assert reason == "braking and turning to the goal yaw" and not lp.is_goal_reached()
+    lp.set_plan(plan)
+    ok, cmd, reason = lp.compute_velocity(cm, (4.9, 5.0, 0.0), (0.3, 0.0, 0.0), plan)
+    assert reason == "braking and turning to the goal yaw" and not lp.is_goal_reached()
+
+
 def test_goal_turn_time_in_place_matches_the_braking_profile():
     """At rest on the goal position, a quarter turn with acc_lim_th 1 rad/s^2 and the braking
     profile sqrt(2 a |error|): speed up until w = sqrt(2 (pi/2 - w^2 / 2)), i.e. for sqrt(pi/2) s,

@@ -301,6 +301,11 @@ class LocalPlanner:
         if self._xy_tolerance_latch or math.hypot(goal_x - x, goal_y - y) <= p.xy_goal_tolerance:
             self._turning_early = False
             self._turn_to_plan = 0.0
+            if not self.stop_for_people:
+                # giving way: the place is what counts; the turn to the goal yaw (the way the robot
+                # came) took 2-4 s, and going on the robot turns toward its plan anyway
+                self._reached_goal = True
+                return True, _ZERO, "goal reached: out of the people's way"
             if p.latch_xy_goal_tolerance:
                 self._xy_tolerance_latch = True
             angle = angles.diff(goal_th, yaw)
@@ -332,7 +337,7 @@ class LocalPlanner:
             cmd = self._turn_toward_plan(costmap, x, y, yaw, vx, vth, window)
             if cmd is not None:
                 return True, cmd, "turning on the spot toward the plan"
-            if holds_goal and p.turn_before_tolerance and p.rotate_while_braking:
+            if holds_goal and p.turn_before_tolerance and p.rotate_while_braking and self.stop_for_people:
                 cmd = self._turn_before_tolerance(costmap, x, y, yaw, vx, vy, vth, window[-1])
                 if cmd is not None:
                     return True, cmd, "braking and turning to the goal yaw"
