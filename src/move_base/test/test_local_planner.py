@@ -8,7 +8,14 @@ import pytest
 import yaml
 from move_base.costmap_2d import LETHAL_OBSTACLE, Costmap2D
 from move_base.footprint import pad_footprint, parse_footprint, transform_footprint
-from move_base.local_planner import NO_VALID_TRAJECTORY, LocalPlanner, clip_plan, goal_turn_times, prune_count
+from move_base.local_planner import (
+    NO_VALID_TRAJECTORY,
+    TURNING_AWAY,
+    LocalPlanner,
+    clip_plan,
+    goal_turn_times,
+    prune_count,
+)
 from move_base.trajectory_planner import PlannerParams, poses_are_free
 from scipy import ndimage
 
@@ -915,3 +922,62 @@ def test_near_person_speed_limits_the_forward_speed_near_people(who):
         assert limited > 0.45
     else:  # within 1.2 m of her (1.0 m at the nearest) every command is within the limit
         assert 0.2 < limited <= 0.3 + 1e-9
+
+
+def test_a_person_beside_the_robot_with_the_plan_leading_away_from_her_makes_it_turn_and_leave():
+    """bench/nav.py --seed 2 (30 Nov): a resident walked up to the robot standing at its last goal,
+    a leg 0.40 m from its centre on its left; the next goal lay 0.52 m the other way. The arcs toward
+    it began by closing in on her, so the robot stopped for her, gave way 1 m the wrong way and came
+    back: 16.6 s. Now it turns on the spot toward the plan, away from her, and drives off; with her
+    where the plan leads it still stops for her."""
+    cm = Costmap2D(100, 100, 0.1)
+    start, goal = (2.21, 2.63, 0.69), (2.625, 2.325)
+    plan = line_plan(start[0], start[1], *goal, yaw_end=-2.43)
+    params = {"min_person_distance": 0.6, "acc_lim_th": 1.0, "turn_to_plan_angle": 1.5}
+
+    def run(leg):
+        lp = planner(**params)
+        lp.set_plan(plan)
+        pose, v, reasons, nearest = start, np.zeros(3), [], math.inf
+        for _ in range(int(8.0 / lp.params.sim_period)):
+            lp.set_people(np.zeros((0, 4)), still=np.array([leg]))
+            ok, cmd, reason = lp.compute_velocity(cm, pose, tuple(v), plan)
+            reasons.append(reason if ok else "stop: " + reason)
+            pose, v = _base_step(pose, v, cmd, (0.5, 0.5, 1.0), lp.params.sim_period)
+            nearest = min(nearest, math.dist(pose[:2], leg))
+            if math.dist(pose[:2], goal) <= 0.25:
+                return True, reasons, nearest
+        return False, reasons, nearest
+
+    reached, reasons, nearest = run((2.18, 3.03))
+    assert reasons[0] == TURNING_AWAY and reached, reasons
+    # no nearer to her than where she stepped up to it (0.401 m), but for the 0.01 m the rule allows
+    # (people_layer.approaches' tolerance): the first arc, once the turn has begun, closes in by 0.01 m
+    assert nearest >= 0.401 - 0.0125
+    reached, reasons, _ = run((2.7, 2.9))  # on its way: it waits for her
+    assert not reached and reasons[0].startswith("stop: ") and TURNING_AWAY not in reasons
+
+
+
+def test_a_turn_away_from_people_once_per_place():
+    """After a turn away from people has ended, the next waits until the robot has moved 0.25 m: in
+    bench/nav.py --seed 2 a robot near a person arced off its plan, turned back toward it, arced off
+    again, 40 s without getting 0.5 m on, and the goal aborted for oscillation."""
+    cm = Costmap2D(100, 100, 0.1)
+    start, goal = (2.21, 2.63, 0.69), (2.625, 2.325)
+    plan = line_plan(start[0], start[1], *goal, yaw_end=-2.43)
+    lp = planner(min_person_distance=0.6, acc_lim_th=1.0, turn_to_plan_angle=1.5)
+    lp.set_plan(plan)
+
+    def cycle(pose, leg):
+        lp.set_people(np.zeros((0, 4)), still=np.array([leg]))
+        return lp.compute_velocity(cm, pose, (0.0, 0.0, 0.0), plan)[2]
+
+    assert cycle(start, (2.18, 3.03)) == TURNING_AWAY
+    assert cycle(start, (2.18, 3.03)) == TURNING_AWAY  # the turn goes on
+    assert cycle(start, (2.7, 2.9)) != TURNING_AWAY  # someone on the way on: it ends
+    assert cycle(start, (2.18, 3.03)) != TURNING_AWAY  # not again here
+    moved = (start[0] - 0.3, start[1], start[2])
+    again = line_plan(moved[0], moved[1], *goal, yaw_end=-2.43)
+    lp.set_people(np.zeros((0, 4)), still=np.array([(1.88, 3.03)]))
+    assert lp.compute_velocity(cm, moved, (0.0, 0.0, 0.0), again)[2] == TURNING_AWAY  # 0.3 m on

@@ -35,6 +35,12 @@ TURN_TO_PLAN_AGAIN = 0.25
 # turn_to_plan_angle: a turn under way goes on its way unless the plan swung round behind it and that
 # way has more than a half turn and this [rad] left (then the other way, if free)
 TURN_TO_PLAN_REVERSE = 0.5
+# forward motion refused for people (_turn_away_from_people): the people within this [m] must all lie
+# behind the plan's direction ...
+AWAY_RADIUS = 1.5
+# ... and the robot face more than this [rad] off it, for a turn on the spot toward the plan
+AWAY_MIN_TURN = 0.3
+TURNING_AWAY = "turning on the spot toward the plan, away from the people"
 # [m] turn_before_tolerance starts only when the simulated stop is this far inside xy_goal_tolerance
 _EARLY_MARGIN = 0.05
 # fractions of acc_lim_x that turn_before_tolerance may brake at: braking gently from farther out
@@ -168,6 +174,8 @@ class LocalPlanner:
         self._goal = None  # the last pose of the plan set last
         self._turn_to_plan = 0.0  # turn_to_plan_angle: the way of the turn on the spot under way (+1, -1; 0: none)
         self._turned_at = None  # turn_to_plan_angle: where the last such turn ended (x, y) [m]
+        self._turning_away = False  # a turn on the spot away from people is under way (_turn_away_from_people)
+        self._turned_away_at = None  # where the last one ended (x, y) [m]
         self._last_cmd = _ZERO  # the command of the last cycle
         self.pose_age = 0.0  # [s] how old the robot pose of the cycle is (set by the node; coast_to_goal_yaw)
         # Florence: with a person in the way (the forward motion that would win is refused for
@@ -203,6 +211,7 @@ class LocalPlanner:
         if not same_goal:
             self._turn_to_plan = 0.0
             self._turned_at = None
+            self._turning_away, self._turned_away_at = False, None
             self._xy_tolerance_latch = False
             self._rotating_to_goal = False
             self._turning_early = False
@@ -348,7 +357,13 @@ class LocalPlanner:
             best = self.planner.find_best_command(costmap, x, y, yaw, vx, vy, vth, window[:, :2])
         cmd, cost, points = best
         if self.stop_for_people and self.planner.blocked_by_people:
+            turn = self._turn_away_from_people(costmap, x, y, yaw, vx, vth, window)
+            if turn is not None:
+                self._turning_away = True
+                return True, turn, TURNING_AWAY
+            self._end_turn_away(x, y)
             return False, _ZERO, NO_VALID_TRAJECTORY_PEOPLE
+        self._end_turn_away(x, y)
         if cost < 0:
             log.debug("no legal trajectory (cost %.1f)", cost)
             if self.planner.refused_for_people:
@@ -443,6 +458,39 @@ class LocalPlanner:
                 self._turn_to_plan = way
                 return cmd
         return self._end_turn_to_plan(x, y)
+
+    def _turn_away_from_people(self, costmap, x, y, yaw, vx, vth, window):
+        """When the forward motion is refused for people: the command of a turn on the spot toward
+        the plan (its pose TURN_TO_PLAN_LOOKAHEAD on) if the plan leads away from every person and
+        leg-height return within AWAY_RADIUS (each more than 90 deg off the plan's direction) and the
+        robot faces more than AWAY_MIN_TURN off it; else None (the robot stops and waits). Why: a
+        resident walked up to the robot standing at its last goal, 0.37 m from its side; the next
+        goal lay 0.5 m the other way, but the arcs toward it began by closing in on her, so the robot
+        waited, gave way 1 m the wrong way and came back: 16.6 s for a 0.52 m plan (bench/nav.py
+        --seed 2, 30 Nov). Facing the plan it leaves her, which min_person_distance allows."""
+        if (not self._turning_away and self._turned_away_at is not None
+                and math.hypot(x - self._turned_away_at[0], y - self._turned_away_at[1]) < TURN_TO_PLAN_AGAIN):
+            return None  # one such turn per place: a robot that arced off and turned back got nowhere
+        d = np.hypot(window[:, 0] - x, window[:, 1] - y)
+        nearest = int(np.argmin(d))
+        ahead = nearest + np.flatnonzero(d[nearest:] >= TURN_TO_PLAN_LOOKAHEAD)
+        tx, ty = window[ahead[0], :2] if len(ahead) else window[-1, :2]
+        ux, uy = tx - x, ty - y
+        if math.hypot(ux, uy) < _AT_GOAL:
+            return None
+        err = angles.diff(math.atan2(uy, ux), yaw)
+        if abs(err) <= AWAY_MIN_TURN:
+            return None
+        near = np.vstack([self.planner.people[:, :2], self.planner.still_people[:, :2]])
+        near = near[np.hypot(near[:, 0] - x, near[:, 1] - y) <= AWAY_RADIUS]
+        if not len(near) or np.any((near[:, 0] - x) * ux + (near[:, 1] - y) * uy >= 0.0):
+            return None
+        return self._turn_on_the_spot(costmap, x, y, yaw, vx, vth, err)
+
+    def _end_turn_away(self, x, y):
+        """No turn away from people this cycle; one that was under way ended at (x, y)."""
+        if self._turning_away:
+            self._turning_away, self._turned_away_at = False, (x, y)
 
     def _end_turn_to_plan(self, x, y):
         """No turn toward the plan (None); one that was under way ended here."""
