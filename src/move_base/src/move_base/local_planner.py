@@ -134,6 +134,17 @@ def clip_plan(costmap, robot_xy, plan):
     return plan[first:stop], first
 
 
+def plan_lookahead(window, x, y, lookahead=TURN_TO_PLAN_LOOKAHEAD):
+    """(x, y) [m] of the first pose of ``window`` (N, 2+) at least ``lookahead`` [m] from the robot
+    at (x, y), past the pose nearest it (the last pose when none is that far): where the plan
+    leads from here."""
+    d = np.hypot(window[:, 0] - x, window[:, 1] - y)
+    nearest = int(np.argmin(d))
+    ahead = nearest + np.flatnonzero(d[nearest:] >= lookahead)
+    tx, ty = window[ahead[0], :2] if len(ahead) else window[-1, :2]
+    return float(tx), float(ty)
+
+
 def prune_count(robot_xy, plan):
     """prunePlan: how many leading plan poses to drop, stopping at the first one closer than
     1 m to the robot (all of them when none is)."""
@@ -438,10 +449,7 @@ class LocalPlanner:
         if (not self._turn_to_plan and self._turned_at is not None
                 and math.hypot(x - self._turned_at[0], y - self._turned_at[1]) < TURN_TO_PLAN_AGAIN):
             return None
-        d = np.hypot(window[:, 0] - x, window[:, 1] - y)
-        nearest = int(np.argmin(d))
-        ahead = nearest + np.flatnonzero(d[nearest:] >= TURN_TO_PLAN_LOOKAHEAD)
-        tx, ty = window[ahead[0], :2] if len(ahead) else window[-1, :2]
+        tx, ty = plan_lookahead(window, x, y)
         err = angles.diff(math.atan2(ty - y, tx - x), yaw)
         limit = p.turn_to_plan_angle / 3.0 if self._turn_to_plan else p.turn_to_plan_angle
         if math.hypot(tx - x, ty - y) < _AT_GOAL or abs(err) <= limit:
@@ -471,10 +479,7 @@ class LocalPlanner:
         if (not self._turning_away and self._turned_away_at is not None
                 and math.hypot(x - self._turned_away_at[0], y - self._turned_away_at[1]) < TURN_TO_PLAN_AGAIN):
             return None  # one such turn per place: a robot that arced off and turned back got nowhere
-        d = np.hypot(window[:, 0] - x, window[:, 1] - y)
-        nearest = int(np.argmin(d))
-        ahead = nearest + np.flatnonzero(d[nearest:] >= TURN_TO_PLAN_LOOKAHEAD)
-        tx, ty = window[ahead[0], :2] if len(ahead) else window[-1, :2]
+        tx, ty = plan_lookahead(window, x, y)
         ux, uy = tx - x, ty - y
         if math.hypot(ux, uy) < _AT_GOAL:
             return None
