@@ -554,3 +554,11 @@ def test_backing_up_toward_a_person_behind_is_told():
     ahead = [*(start[:2] + 1.0 * u), 0.0, 0.0]
     assert backs_toward(points, [ahead], 1.5).tolist() == [False, False, False]
     assert backs_toward(points, np.zeros((0, 4)), 1.5).tolist() == [False, False, False]
+
+
+def test_a_held_person_who_lapsed_is_not_counted_as_held_any_more():
+    layer = ProxemicLayer(keep_time=1.0, unseen_keep_time=5.0)
+    layer.set_people([Person(1.0, 0.0, 0.0, 0.0, seen=0.0, id=1)], stamp=0.0)
+    assert layer.observe(2.0, 0.0, 0.0, math.pi) == 1  # behind the robot: held
+    layer.set_people([], stamp=6.0)  # past unseen_keep_time: gone with the next message
+    assert layer.release_unseen() == 0

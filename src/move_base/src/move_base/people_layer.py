@@ -129,15 +129,14 @@ class ProxemicLayer:
                 dropped += 1
         self._stamp = stamp
         self._people = {k: v for k, v in self._people.items() if self._kept(v[0], stamp)}
+        self._unseen &= self._people.keys()  # held ones past unseen_keep_time are gone
         return dropped
 
     def _kept(self, person, now):
-        """Whether ``person`` still counts at ``now`` [s]: seen within keep_time, or
-        within unseen_keep_time and not found missing by :meth:`observe` (which deletes a person
-        the sensors look at and do not hold; until the costmap's next update, one past keep_time
-        counts)."""
-        age = now - person.seen
-        return age <= self.keep_time or age <= self.unseen_keep_time
+        """Whether ``person`` still counts at ``now`` [s]: seen within keep_time, or within
+        unseen_keep_time and not yet found missing by :meth:`observe` (which deletes a person the
+        sensors look at and do not hold)."""
+        return now - person.seen <= max(self.keep_time, self.unseen_keep_time)
 
     def observe(self, now, x, y, yaw, hidden=None):
         """``unseen_keep_time``: the robot at (x, y, yaw) [m, m, rad; yaw None: unknown, every
@@ -149,7 +148,7 @@ class ProxemicLayer:
         robot turns its back on; forgotten keep_time later, a person standing in the corridor the
         robot had planned round was no longer in the way, the plan flipped back through them, the
         robot turned, saw them, and the plan flipped again (bench/nav.py seed 1, leg 3: six such
-        turns in 50 s). Returns how many are held."""
+        turns in 45 s). Returns how many are held."""
         if self.unseen_keep_time <= 0.0:
             self._unseen.clear()
             return 0
