@@ -20,7 +20,7 @@ from move_base.costmap_2d import (
     NO_INFORMATION,
     Costmap2D,
 )
-from move_base.navfn import NavfnPlanner, translate_costs
+from move_base.navfn import NavfnPlanner, keep_current_plan, path_cost, plans_apart, translate_costs
 
 pytestmark = pytest.mark.unit
 
@@ -356,3 +356,91 @@ def test_bad_parameters():
         NavfnPlanner(default_tolerance=-0.1)
     with pytest.raises(ValueError):
         NavfnPlanner(planner_window_x=-1.0)
+
+
+# --- replanning hysteresis ----------------------------------------------------------------------
+def test_path_cost_is_the_weighted_length():
+    cm = make_costmap(free_grid())
+    line = np.array([[*cell_center(10, 10), 0.0], [*cell_center(50, 40), 0.0]])
+    assert path_cost(cm, line) == pytest.approx(50.0 * 50.0, rel=1e-9)  # 50 cells at COST_NEUTRAL
+    costs = random_grid(3)
+    cm = make_costmap(costs)
+    res = NavfnPlanner().make_plan(cm, (*cell_center(3, 3), 0.0), (*cell_center(86, 76), 0.0))
+    assert res.ok, res.reason
+    reference = weighted_length(cm, ref_trav(costs, robot_cell=(3, 3)), res.poses)
+    assert path_cost(cm, res.poses) == pytest.approx(reference, rel=0.02)
+    # through an obstacle, off the map, not finite: inf
+    costs = free_grid()
+    costs[:, 30] = LETHAL_OBSTACLE
+    assert path_cost(make_costmap(costs), line) == math.inf
+    assert path_cost(cm, np.array([[0.0, 0.0], [50.0, 0.5]])) == math.inf
+    assert path_cost(cm, np.array([[np.nan, 1.0], [1.0, 1.0]])) == math.inf
+    assert path_cost(cm, np.empty((0, 3))) == math.inf
+
+
+def loop_grid(block_top=43):
+    """A block in the middle of a free grid: two ways from the left to the right (row 28 to row
+    28), under it (rows below 18) and over it (rows from ``block_top`` on); with the default the
+    way under is a little shorter."""
+    costs = free_grid()
+    costs[18:block_top, 25:46] = LETHAL_OBSTACLE
+    return costs
+
+
+def way_round(costs, start, goal, over):
+    """navfn's plan with the other way walled off."""
+    walled = costs.copy()
+    if over:
+        walled[:28, 35] = LETHAL_OBSTACLE
+    else:
+        walled[28:, 35] = LETHAL_OBSTACLE
+    res = NavfnPlanner().make_plan(make_costmap(walled), start, goal)
+    assert res.ok, res.reason
+    return res.poses
+
+
+def test_keep_current_plan_between_two_ways_round_a_loop():
+    costs = loop_grid()
+    cm = make_costmap(costs)
+    start, goal = (*cell_center(10, 28), 0.0), (*cell_center(60, 28), 1.0)
+    new = NavfnPlanner().make_plan(cm, start, goal).poses
+    assert new[:, 1].min() < cell_center(0, 18)[1]  # navfn goes under the block
+    over = way_round(costs, start, goal, over=True)
+    assert path_cost(cm, over) > path_cost(cm, new)  # the way over costs more ...
+    kept = keep_current_plan(cm, over, new, start[:2], 0.1, 0.5)
+    assert kept is not None  # ... but not enough to turn round for
+    assert kept[:, 1].max() >= cell_center(0, 43)[1] - 1e-9  # over the block
+    assert np.allclose(kept[0, :2], start[:2]) and np.allclose(kept[-1], goal)
+    # the robot moved on along the kept way: its rest from the nearest pose
+    robot = over[len(over) // 4, :2] + [0.0, 0.02]
+    kept = keep_current_plan(cm, over, new, robot, 0.1, 0.5)
+    assert kept is not None and np.allclose(kept[0, :2], robot) and len(kept) < len(over)
+    # the new plan the same way (the robot a little off the current one): the fresh plan
+    same = way_round(costs, start, goal, over=True)
+    same[1:-1, 1] += 0.1
+    assert 0.09 < plans_apart(same, over) < 0.11
+    assert keep_current_plan(cm, over, same, start[:2], 10.0, 100.0) is None
+    # a person near the kept way (or what may be one): the fresh plan, round them by their costs
+    person = kept[len(kept) // 2, :2] + [0.0, 1.2]
+    assert keep_current_plan(cm, over, new, start[:2], 0.1, 0.5, people=[person], people_radius=1.5) is None
+    assert keep_current_plan(cm, over, new, start[:2], 0.1, 0.5, people=[person], people_radius=1.0) is not None
+    assert keep_current_plan(cm, over, new, start[:2], 0.1, 0.5, people=np.zeros((0, 2))) is not None
+    # no hysteresis asked (ROS): the new plan
+    assert keep_current_plan(cm, over, new, start[:2], 0.0, 0.0) is None
+    # a much longer way is given up
+    high = loop_grid(block_top=55)  # over it: 1.2 m more
+    cm_high = make_costmap(high)
+    over_high = way_round(high, start, goal, over=True)
+    new_high = NavfnPlanner().make_plan(cm_high, start, goal).poses
+    assert keep_current_plan(cm_high, over_high, new_high, start[:2], 0.1, 0.5) is None
+    # the kept way now blocked (a person's inscribed ring, a closed door): never kept
+    blocked = costs.copy()
+    blocked[41:, 35] = INSCRIBED_INFLATED_OBSTACLE
+    assert keep_current_plan(make_costmap(blocked), over, new, start[:2], 10.0, 100.0) is None
+    # the robot far from the plan being followed (pushed aside, giving way): the new plan
+    assert keep_current_plan(cm, over, new, (start[0], start[1] + 1.0), 10.0, 100.0) is None
+    # bad input: no plan, a NaN pose
+    assert keep_current_plan(cm, over[:1], new, start[:2], 0.1, 0.5) is None
+    broken = over.copy()
+    broken[len(over) // 2, 0] = np.nan
+    assert keep_current_plan(cm, broken, new, start[:2], 0.1, 0.5) is None

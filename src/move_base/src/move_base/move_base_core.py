@@ -65,6 +65,14 @@ ZERO = (0.0, 0.0, 0.0)
 PARAMS = ParamTable(
     Param("planner_frequency", float, 0.0, "replanning rate while controlling (0: plan on a new goal and after "
           "failures only)", unit="Hz", ge=0.0),
+    Param("replan_keep_ratio", float, 0.0, "Florence: when replanning while controlling finds a plan that goes "
+          "another way (more than 1 m from the plan being followed somewhere), the plan being followed is kept "
+          "while its rest costs at most this fraction more than the new one (plus replan_keep_margin), so that "
+          "the robot does not swap back and forth between two ways round a loop of rooms; never within 1.5 m "
+          "of a person or of leg-height returns the maps do not explain (0 with "
+          "replan_keep_margin 0: every new plan is taken, ROS)", ge=0.0),
+    Param("replan_keep_margin", float, 0.0, "Florence: the extra cost a kept plan may have, as metres of free "
+          "floor (see replan_keep_ratio)", unit="m", ge=0.0),
     Param("planner_patience", float, 5.0, "time without a valid plan before the recoveries run", unit="s", ge=0.0),
     Param("controller_frequency", float, 20.0, "control loop and velocity command rate", unit="Hz", gt=0.0),
     Param("controller_patience", float, 15.0, "time without a valid command before the recoveries run", unit="s",

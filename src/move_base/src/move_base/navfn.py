@@ -544,3 +544,117 @@ def _with_headings(xs, ys, goal_yaw):
         idx = np.minimum.accumulate(idx[::-1])[::-1]
         yaw = np.append(yaw, goal_yaw)[idx]
     return np.column_stack((xs, ys, np.append(yaw, goal_yaw)))
+
+
+def path_cost(costmap, xy, allow_unknown=True, start_clearance=0.0):
+    """navfn's traversal cost of following the polyline ``xy`` (N, 2+) [m] on ``costmap``: the
+    translated cost of the cell under each half-cell step, times the step in cells (the units of
+    the potential: traversal cost x cells; a free metre costs ``COST_NEUTRAL / resolution``).
+    ``inf`` when the path leaves the costmap or crosses an obstacle. The cells round the first
+    point are treated as :meth:`NavfnPlanner.make_plan` treats the robot's (its own cell free,
+    inscribed cells within ``start_clearance`` [m] passable), so a kept plan and a new one from
+    the same robot pose are costed alike."""
+    xy = np.asarray(xy, dtype=float)
+    if xy.ndim != 2 or len(xy) == 0 or xy.shape[1] < 2 or not np.isfinite(xy[:, :2]).all():
+        return math.inf
+    trav = _start_costs(costmap, xy[0], allow_unknown, start_clearance)
+    return math.inf if trav is None else _cost_along(costmap, trav, xy[:, :2])
+
+
+def _start_costs(costmap, start_xy, allow_unknown, start_clearance):
+    """Translated costs with the start treated as make_plan treats the robot's; None off the map."""
+    start = costmap.world_to_map(float(start_xy[0]), float(start_xy[1]))
+    if start is None:
+        return None
+    trav = translate_costs(costmap.costs, allow_unknown, start)
+    if start_clearance > 0.0:
+        _open_start(trav, costmap.costs, start, start_clearance / costmap.resolution)
+    return trav
+
+
+def _cost_along(costmap, trav, xy):
+    """path_cost on translated costs ``trav``."""
+    seg = np.hypot(np.diff(xy[:, 0]), np.diff(xy[:, 1]))
+    s = np.concatenate(([0.0], np.cumsum(seg)))
+    total = s[-1] / costmap.resolution  # [cells]
+    if total <= 0.0:
+        return 0.0
+    n = math.ceil(total / PATH_STEP)
+    at = (np.arange(n) + 0.5) * (s[-1] / n)
+    mx, my, inside = costmap.world_to_map(np.interp(at, s, xy[:, 0]), np.interp(at, s, xy[:, 1]))
+    if not inside.all():
+        return math.inf
+    cells = trav[my, mx].astype(float)
+    if (cells >= COST_OBS).any():
+        return math.inf
+    return float(cells.sum() * (total / n))
+
+
+def _distances_to(points, path):
+    """(N,) distance [m] from each of ``points`` (N, 2+) to the nearest point of ``path`` (M, 2+)."""
+    a = np.asarray(points, dtype=float)[:, :2]
+    b = np.asarray(path, dtype=float)[:, :2]
+    d2 = (a[:, None, 0] - b[None, :, 0]) ** 2 + (a[:, None, 1] - b[None, :, 1]) ** 2
+    return np.sqrt(d2.min(axis=1))
+
+
+def plans_apart(a, b, step=4):
+    """How far [m] plan ``a`` (N, 2+) strays from plan ``b`` (M, 2+): the largest distance from a
+    point of ``a`` (every ``step``-th, and its last) to the nearest point of ``b``."""
+    a = np.asarray(a, dtype=float)
+    return float(_distances_to(np.vstack((a[::step], a[-1:])), b).max())
+
+
+def keep_current_plan(costmap, current, new, robot_xy, keep_ratio, keep_margin, max_offset=0.5, search=2.0,
+                      same_way=1.0, people=None, people_radius=1.5, allow_unknown=True, start_clearance=0.0):
+    """Replanning hysteresis (Florence; ROS's move_base takes every new plan). A home is full of
+    loops (round the dining table, through either door of a room): two ways to a goal can cost
+    nearly the same, and a plan made once a second from a robot that has moved a little may swap
+    between them, turning the robot back and forth (florence_sim, nobody home: a leg that set off
+    one way, turned on the spot and went the other way lost 4-10 s).
+
+    ``current`` (N, 3) is the plan being followed (pruned as the robot advanced), ``new`` the plan
+    just made from ``robot_xy`` (x, y) [m] to the same goal. When the new plan goes another way
+    (it strays more than ``same_way`` [m] from the current one's rest, :func:`plans_apart`),
+    returns the rest of ``current`` from its pose nearest the robot (within the first ``search``
+    [m] of it, at most ``max_offset`` [m] away), with the robot's position put first, when its
+    :func:`path_cost` is at most ``(1 + keep_ratio)`` times the new plan's plus ``keep_margin`` [m]
+    of free cells; else None (take the new plan: the fresh plan the same way, which starts where
+    the robot is, or a way that costs enough less). A
+    kept plan through an obstacle, a person's inscribed ring or off the map costs ``inf`` and is
+    never kept; nor is one that passes within ``people_radius`` [m] of any of ``people`` (P, 2+)
+    [m] (those the costmaps hold, what may be a person): round people the plan follows their
+    proxemic costs as they move, as without hysteresis (with the hysteresis alone, in florence_sim
+    with the walking residents, the robot kept to plans that led it up to them and stood rocking
+    on the spot)."""
+    current = np.asarray(current, dtype=float).reshape(-1, 3)
+    new = np.asarray(new, dtype=float).reshape(-1, 3)
+    if len(current) < 2 or len(new) < 2 or (keep_ratio <= 0.0 and keep_margin <= 0.0):
+        return None
+    rest = _rest_of_plan(current, robot_xy, max_offset, search)
+    if rest is None or plans_apart(new, rest) <= same_way:
+        return None
+    if people is not None and len(people) and _distances_to(people, rest).min() <= people_radius:
+        return None
+    trav = _start_costs(costmap, robot_xy, allow_unknown, start_clearance)
+    old_cost = math.inf if trav is None else _cost_along(costmap, trav, rest[:, :2])
+    if not math.isfinite(old_cost):
+        return None
+    margin = keep_margin / costmap.resolution * COST_NEUTRAL
+    if old_cost > (1.0 + keep_ratio) * _cost_along(costmap, trav, new[:, :2]) + margin:
+        return None
+    return _with_headings(rest[:, 0], rest[:, 1], float(current[-1, 2]))
+
+
+def _rest_of_plan(plan, robot_xy, max_offset, search):
+    """The robot's position (x, y, 0) followed by ``plan`` from its pose nearest the robot among
+    those within ``search`` [m] along it from its start; None when that pose is more than
+    ``max_offset`` [m] away or the plan is not finite."""
+    along = np.concatenate(([0.0], np.cumsum(np.hypot(np.diff(plan[:, 0]), np.diff(plan[:, 1])))))
+    head = plan[along <= search]  # along[0] is 0: never empty
+    d = np.hypot(head[:, 0] - robot_xy[0], head[:, 1] - robot_xy[1])
+    k = int(np.nanargmin(d)) if np.isfinite(d).any() else 0
+    if not d[k] <= max_offset:
+        return None
+    rest = np.vstack(([robot_xy[0], robot_xy[1], 0.0], plan[k:] if d[k] > 1e-9 else plan[k + 1:]))
+    return rest if np.isfinite(rest[:, :2]).all() else None

@@ -600,11 +600,26 @@ class MoveBaseNode:
         return stat
 
     # --- planning -----------------------------------------------------------------------------
-    def _plan(self, start, goal, tolerance=None):
+    def _plan(self, start, goal, tolerance=None, current=None):
+        """navfn's plan from ``start`` to ``goal``; with ``current``, the plan being followed to the
+        same goal, that plan's rest instead when the new plan goes another way and costs little
+        less (navfn.keep_current_plan)."""
         costmap = self.planner_costmap
         with costmap.lock:
             result = self.global_planner.make_plan(costmap.costmap, start, goal, tolerance,
                                                    start_clearance=costmap.inscribed_radius)
+            if result.ok and current is not None:
+                people = costmap.layered.people
+                around = [costmap.layered.unmapped_marks(start[0], start[1], 2.5)]  # a person untracked?
+                if people is not None:
+                    around.append(people.current(rospy.get_time())[0][:, :2])
+                kept = navfn.keep_current_plan(costmap.costmap, current, result.poses, start[:2],
+                                               self.params.replan_keep_ratio, self.params.replan_keep_margin,
+                                               people=np.concatenate(around),
+                                               allow_unknown=self.global_planner.allow_unknown,
+                                               start_clearance=costmap.inscribed_radius)
+                if kept is not None:
+                    result = navfn.PlanResult(True, kept, "", result.potential)
             if not result.ok and costmap.layered.forget_unseen_people():
                 # people remembered out of view (proxemic unseen_keep_time) may be gone: no plan with
                 # them is no reason to wait or give up
@@ -616,7 +631,11 @@ class MoveBaseNode:
         return result
 
     def _plan_for_core(self, start, goal):
-        result = self._plan(start, goal)
+        lp = self.local_planner
+        current = lp.global_plan
+        same_goal = (lp.stop_for_people and len(current) > 1  # not a plan out of people's way
+                     and np.allclose(current[-1], goal, rtol=0.0, atol=1e-6))
+        result = self._plan(start, goal, current=current.copy() if same_goal else None)
         if result.ok:
             self.plan_pub.publish(path_msg(result.poses, self.planner_costmap.global_frame, rospy.Time.now()))
         return result
