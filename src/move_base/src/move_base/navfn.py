@@ -592,10 +592,9 @@ def _cost_along(costmap, trav, xy):
 
 def _distances_to(points, path):
     """(N,) distance [m] from each of ``points`` (N, 2+) to the nearest point of ``path`` (M, 2+)."""
-    a = np.asarray(points, dtype=float)[:, :2]
-    b = np.asarray(path, dtype=float)[:, :2]
-    d2 = (a[:, None, 0] - b[None, :, 0]) ** 2 + (a[:, None, 1] - b[None, :, 1]) ** 2
-    return np.sqrt(d2.min(axis=1))
+    from scipy.spatial import cKDTree
+
+    return cKDTree(np.asarray(path, dtype=float)[:, :2]).query(np.asarray(points, dtype=float)[:, :2])[0]
 
 
 def plans_apart(a, b, step=4):
@@ -620,13 +619,11 @@ def keep_current_plan(costmap, current, new, robot_xy, keep_ratio, keep_margin, 
     [m] of it, at most ``max_offset`` [m] away), with the robot's position put first, when its
     :func:`path_cost` is at most ``(1 + keep_ratio)`` times the new plan's plus ``keep_margin`` [m]
     of free cells; else None (take the new plan: the fresh plan the same way, which starts where
-    the robot is, or a way that costs enough less). A
-    kept plan through an obstacle, a person's inscribed ring or off the map costs ``inf`` and is
-    never kept; nor is one that passes within ``people_radius`` [m] of any of ``people`` (P, 2+)
-    [m] (those the costmaps hold, what may be a person): round people the plan follows their
-    proxemic costs as they move, as without hysteresis (with the hysteresis alone, in florence_sim
-    with the walking residents, the robot kept to plans that led it up to them and stood rocking
-    on the spot)."""
+    the robot is, or a way that costs enough less). A kept plan through an obstacle, a person's
+    inscribed ring or off the map costs ``inf`` and is never kept; nor is one that passes within
+    ``people_radius`` [m] of any of ``people`` (P, 2+) [m] (those the costmaps hold, what may be a
+    person): round people the plan follows their proxemic costs as they move, as without
+    hysteresis."""
     current = np.asarray(current, dtype=float).reshape(-1, 3)
     new = np.asarray(new, dtype=float).reshape(-1, 3)
     if len(current) < 2 or len(new) < 2 or (keep_ratio <= 0.0 and keep_margin <= 0.0):

@@ -633,7 +633,8 @@ class MoveBaseNode:
     def _plan_for_core(self, start, goal):
         lp = self.local_planner
         current = lp.global_plan
-        same_goal = (lp.stop_for_people and len(current) > 1  # not a plan out of people's way
+        hysteresis = self.params.replan_keep_ratio > 0.0 or self.params.replan_keep_margin > 0.0
+        same_goal = (hysteresis and lp.stop_for_people and len(current) > 1  # not a plan out of people's way
                      and np.allclose(current[-1], goal, rtol=0.0, atol=1e-6))
         result = self._plan(start, goal, current=current.copy() if same_goal else None)
         if result.ok:
