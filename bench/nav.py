@@ -20,7 +20,10 @@ over florence_sim's keep-out map), the driven length, collisions from the simula
 least ground-truth gap between the robot's body and anything (walls, furniture, people), the least
 distance between the robot's centre and a person's while it drives (and at any time), and where
 the time went (driving, turning on the spot, standing still): florence_eval.nav_metrics.
-``--clearance-of nav.json`` prints the world gaps of a saved run. ``--rooms bathroom,bedroom`` drives
+``--clearance-of nav.json`` prints the world gaps of a saved run. ``--floor`` prints, without
+the stack, the least time ratios the seed's legs allow within the base's limits (turn on the spot,
+drive, turn, one after the other; each leg from the goal before it): the median is 1.44-1.50 with
+seeds 1-3, above the time ratio's targets. ``--rooms bathroom,bedroom`` drives
 to those rooms' hotspots (maps/apartment/rooms.yaml) in turn instead of random goals: with the
 shipped people, the bathroom and the bedroom lie at either end of the corridor Bob walks to and
 fro, and every leg meets him there (head-on, or walking ahead of the robot).
@@ -82,6 +85,19 @@ def start_busy(count):
             for _ in range(count)]
 
 
+def print_floor(args):
+    """--floor: the median of the least time ratios of the legs to the seed's random goals."""
+    from florence_eval.nav_config import IdealPlanner
+
+    ideal = IdealPlanner()
+    goals = nav_metrics.random_goals(ideal.grid, args.pairs * 3, args.clearance, np.random.default_rng(args.seed))
+    floors = np.array(nav_metrics.floor_ratios(ideal.plan, goals, START, args.pairs))
+    print(f"seed {args.seed}: {len(floors)} legs, least time ratio within the base's limits (turn, drive, turn): "
+          f"median {np.median(floors):.3f}, p10 {np.percentile(floors, 10):.3f}, "
+          f"p90 {np.percentile(floors, 90):.3f}; legs above 1.35: {np.mean(floors > 1.35):.0%}, "
+          f"above 1.25: {np.mean(floors > 1.25):.0%}")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--pairs", type=int, default=100, help="random goals to drive to, one after the other")
@@ -98,12 +114,18 @@ def main():
                         "random goals)")
     parser.add_argument("--name", help="result file stem (default from the options, e.g. nav_seed1)")
     parser.add_argument("--clearance-of", metavar="JSON", help="only print the body clearances of a saved nav.json")
+    parser.add_argument("--floor", action="store_true",
+                        help="only print the least time ratios of the seed's goals within the base's limits "
+                             "(turn, drive, turn; each leg from the goal before it), without the stack")
     args = parser.parse_args()
     if args.clearance_of:
         try:
             print(json.dumps(nav_metrics.clearance_of(args.clearance_of), indent=1))
         except (OSError, ValueError) as exc:
             raise SystemExit(f"--clearance-of {args.clearance_of}: {exc}") from None
+        return
+    if args.floor:
+        print_floor(args)
         return
     if args.people not in ("shipped", "none") and not Path(args.people).is_file():
         raise SystemExit(f"--people {args.people}: no such file")

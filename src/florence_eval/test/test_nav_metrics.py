@@ -109,6 +109,8 @@ def test_leg_record_body_clearance_counts_people(world_and_body):
     assert leg["person_distance_driving_m"] == pytest.approx(0.5)
     assert leg["body_clearance_m"] == pytest.approx(0.5 - body[0] - 0.2)  # the person, nearer than any wall
     assert leg["world_clearance_m"] > leg["body_clearance_m"]
+    # 0.1 m at 0.5 m/s (0.2 s) takes 2 sqrt(0.1 / 1.0) s from rest to rest, no turn
+    assert leg["ratio_floor"] == pytest.approx(2.0 * math.sqrt(0.1) / 0.2)
     summary = nav_metrics.summarise([leg])
     assert summary["legs_nearer_than_0_5_m_driving"] == 0
     assert summary["verdicts"]["person_distance_driving_m"] is True
@@ -138,6 +140,27 @@ def test_ideal_planner_plans_round_the_table_top_in_the_true_world():
 ])
 def test_turn_time_from_rest_to_rest(angle, expected):
     assert nav_metrics.turn_time(angle) == pytest.approx(expected)
+
+
+@pytest.mark.parametrize(("length", "expected"), [
+    (0.0, 0.0),
+    (0.16, 0.8),  # below max_vel^2 / acc = 0.25 m: accelerate half-way, brake the rest (2 sqrt(0.16 / 1.0))
+    (2.0, 4.5),  # at 0.5 m/s: 4 s, plus 0.5 s lost ramping up and down
+])
+def test_drive_time_from_rest_to_rest(length, expected):
+    assert nav_metrics.drive_time(length) == pytest.approx(expected)
+
+
+def test_floor_ratios_of_legs_goal_to_goal():
+    def straight(start, goal):  # the shortest path: a straight line, except into the wall at x > 9
+        return None if goal[0] > 9.0 else np.linspace(start[:2], goal[:2], 11)
+
+    goals = [(2.0, 0.0, 0.0), (10.0, 0.0, 0.0), (2.2, 0.0, 0.0), (2.0, 2.0, math.pi / 2)]
+    ratios = nav_metrics.floor_ratios(straight, goals, (0.0, 0.0, 0.0), 5)
+    # (2 m east, no turn: 4.5 / 4); unreachable and 0.2 m skipped; (2 m north from (2, 0, 0): a quarter
+    # turn onto it, none at the end)
+    assert ratios == pytest.approx([4.5 / 4.0, (4.5 + nav_metrics.turn_time(math.pi / 2)) / 4.0])
+    assert nav_metrics.floor_ratios(straight, goals, (0.0, 0.0, 0.0), 1) == pytest.approx([4.5 / 4.0])
 
 
 def test_plan_length_and_turns():
@@ -198,6 +221,9 @@ def test_summary_over_legs():
     assert summary["pairs"] == 2 and summary["succeeded"] == 1 and summary["success_rate"] == 0.5
     assert summary["collisions"] == 1 and summary["body_clearance_m"]["min"] == 0.0
     assert summary["time_ratio_median"] == 1.2 and summary["rest_after_outcome_s"]["max"] == 1.0
+    assert summary["time_ratio_floor_median"] is None  # legs recorded before the floor: none
+    floored = nav_metrics.summarise([{**reached, "ratio_floor": 1.5}, {**reached, "ratio_floor": 1.3}, failed])
+    assert floored["time_ratio_floor_median"] == pytest.approx(1.4)  # over the goals reached
     assert summary["legs_spinning_over_a_turn"] == 0  # legs without the figure count as not spinning
     spun = nav_metrics.summarise([{**reached, "spin_in_place_rad": 7.0}, {**reached, "spin_in_place_rad": 3.0}])
     assert spun["legs_spinning_over_a_turn"] == 1
