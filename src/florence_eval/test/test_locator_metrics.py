@@ -64,3 +64,13 @@ def test_bench_placements_are_free_and_apart():
         assert rooms.room_at(ux, uy) == room and rooms.room_at(robot[0], robot[1]) not in (room, "unknown")
         assert np.min(np.hypot(free[:, 0] - ux, free[:, 1] - uy)) < 0.05
         assert user["posture"] in ("sitting", "standing")
+
+
+def test_arrival_judges_the_estimate_at_the_goal_and_against_the_truth():
+    goal = (2.0, 1.0, 0.0)
+    # 0.2 m short by the estimate, which is 0.05 m off: 0.25 m by the truth
+    end = lm.arrival((1.75, 1.0, 0.0), (1.8, 1.0), goal)
+    assert (end.true_distance, end.estimated_distance, end.localization_error) == pytest.approx((0.25, 0.2, 0.05))
+    assert end.ok and "0.250 m from it by ground truth" in str(end)
+    assert not lm.arrival((1.7, 1.0), (1.7, 1.0), goal).ok  # 0.3 m from it: beyond the tolerance
+    assert not lm.arrival((2.0, 1.15), (2.0, 1.0), goal).ok  # at it by an estimate 0.15 m off

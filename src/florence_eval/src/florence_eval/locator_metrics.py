@@ -13,6 +13,12 @@ import numpy as np
 from florence_common import angles
 
 PERSONAL_SPACE = 0.45  # [m] centre to centre: the edge of Hall's personal zone
+# A gotoRoom / gotoXYPhi that SUCCEEDED: move_base ends a goal once amcl's estimate of the robot is
+# within its xy_goal_tolerance (0.25 m), and a robot still braking or turning then comes to rest up
+# to a few centimetres beyond it (move_base/README.md, turn_before_tolerance: at most 0.28 m in 100
+# legs); amcl's estimate is within 0.1 m of the truth while it tracks (amcl/README.md: RMS 3 cm).
+ARRIVAL_TOL = 0.25 + 0.03  # [m] the robot's estimated position at rest from the goal's
+LOCALIZATION_TOL = 0.10  # [m] the estimated position from the true one
 
 
 @dataclass(frozen=True)
@@ -46,6 +52,33 @@ def approach(robot, user):
     side = angles.diff(math.atan2(-dy, -dx), user[2])
     return Approach(math.hypot(dx, dy), float(angles.diff(robot[2], bearing)), float(side),
                     user[3] if len(user) > 3 else "")
+
+
+@dataclass(frozen=True)
+class Arrival:
+    """Where a robot sent to a goal came to rest: its true and estimated (amcl's, through the
+    locator's getRobotPosXYPhi) distance [m] from the goal's position, and the estimate's error."""
+
+    true_distance: float
+    estimated_distance: float
+    localization_error: float
+
+    @property
+    def ok(self):
+        """The estimate within ARRIVAL_TOL of the goal and within LOCALIZATION_TOL of the truth."""
+        return self.estimated_distance <= ARRIVAL_TOL and self.localization_error <= LOCALIZATION_TOL
+
+    def __str__(self):
+        return (f"{self.true_distance:.3f} m from it by ground truth, {self.estimated_distance:.3f} m by amcl's "
+                f"estimate (<= {ARRIVAL_TOL:.2f}), which is {self.localization_error:.3f} m off the truth "
+                f"(<= {LOCALIZATION_TOL:.2f})")
+
+
+def arrival(truth, estimate, goal):
+    """:class:`Arrival` of a robot at rest at ``truth`` (x, y, ...), estimated at ``estimate`` (x,
+    y, ...), sent to ``goal`` (x, y, ...)."""
+    return Arrival(math.dist(truth[:2], goal[:2]), math.dist(estimate[:2], goal[:2]),
+                   math.dist(truth[:2], estimate[:2]))
 
 
 def nearest_person(track, people_log, since=-math.inf, until=math.inf):

@@ -76,7 +76,6 @@ ROOMS = map_file("apartment", "rooms.yaml")
 # tolerances of the checks
 USER_DISTANCE, USER_DISTANCE_TOL = 0.5, 0.15  # [m] gotoUser's end: approach_me_map's safe_distance
 FACING_TOL = math.radians(20)
-HOTSPOT_TOL = 0.35  # [m] move_base's xy_goal_tolerance 0.25 + amcl's error
 APPROACH_POS_TOL, APPROACH_HEADING_TOL = 0.15, math.radians(15)
 TERMINAL = {"SUCCEEDED", "ABORTED", "PREEMPTED", "REJECTED", "RECALLED", "LOST"}
 # the day's steps in order: name (the demo's --steps) -> Day method
@@ -533,14 +532,20 @@ class Day:
         spot = self.call("getHotspot", room)
         here = self.call("getRobotPosRoom")
         x, y, yaw = self.s.robot()
-        err = math.hypot(x - spot.x, y - spot.y)
+        est = self.call_quiet("getRobotPosXYPhi")
+        end = locator_metrics.arrival((x, y), (est.x, est.y), (spot.x, spot.y))
         truth_room = self.truth_room()
         st.outcome = done.status
-        st.error = f"{err:.2f} m from the hotspot, heading off {math.degrees(abs(angles.diff(yaw, spot.phi))):.0f} deg"
-        st.data.update(error_m=round(err, 3), truth_room=truth_room, locator_room=here.room)
+        st.error = (f"{end.true_distance:.2f} m from the hotspot, heading off "
+                    f"{math.degrees(abs(angles.diff(yaw, spot.phi))):.0f} deg")
+        st.data.update(error_m=round(end.true_distance, 3), estimate_error_m=round(end.estimated_distance, 3),
+                       localization_error_m=round(end.localization_error, 3), truth_room=truth_room,
+                       locator_room=here.room)
         self.check(f"{name}: {room} SUCCEEDED", done.status == "SUCCEEDED", f"{done.status}: {done.message}")
-        self.check(f"{name}: in the {room} (ground truth), within {HOTSPOT_TOL} m of its hotspot",
-                   truth_room == room and err <= HOTSPOT_TOL, f"{truth_room}, {err:.3f} m")
+        self.check(f"{name}: in the {room} (ground truth), at its hotspot by amcl's estimate "
+                   f"(within {locator_metrics.ARRIVAL_TOL:.2f} m) and amcl within "
+                   f"{locator_metrics.LOCALIZATION_TOL:.2f} m of the truth",
+                   truth_room == room and est.success and end.ok, f"{truth_room}, {end}")
         self.check(f"{name}: getRobotPosRoom says {room}", here.room == room, here.room)
 
     def hotspot_survives_restart(self):
