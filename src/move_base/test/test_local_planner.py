@@ -16,7 +16,7 @@ from move_base.local_planner import (
     goal_turn_times,
     prune_count,
 )
-from move_base.trajectory_planner import PlannerParams, poses_are_free
+from move_base.trajectory_planner import PlannerParams, failure_counts, failure_text, poses_are_free
 from scipy import ndimage
 
 from florence_common import angles
@@ -291,7 +291,18 @@ def test_empty_window_and_blocked_robot_fail_with_a_reason():
     plan = line_plan(5.0, 5.0, 8.0, 5.0)
     lp.set_plan(plan)
     ok, cmd, reason = lp.compute_velocity(cm, (5.0, 5.0, 0.0), (0.0, 0.0, 0.0), plan)
-    assert not ok and cmd == (0.0, 0.0, 0.0) and reason == NO_VALID_TRAJECTORY
+    assert not ok and cmd == (0.0, 0.0, 0.0) and reason.startswith(NO_VALID_TRAJECTORY + ": ")
+    # why, for the log and the abort text: every sample ends where the plan's distances do not reach
+    samples = lp.planner.failures["samples"]
+    assert samples > 0 and lp.planner.failures["unreachable"] == samples
+    assert f"0 of {samples} samples hit an obstacle or unknown cell, {samples} leave the plan's reach" in reason
+    assert reason.endswith("the footprint is clear where it stands")
+    counts = failure_counts([-1.0, -2.0, -3.0, -1.0], -1.0, 12.0)  # the padded outline touches, the body does not
+    assert failure_text(counts) == ("2 of 4 samples hit an obstacle or unknown cell, 1 leave the plan's reach, 1 come "
+                                    "too near a person; the padded footprint touches an obstacle or unknown cell "
+                                    "where it stands")
+    assert failure_text({**counts, "body_here": -1.0}).endswith("the body touches an obstacle or unknown cell where it "
+                                                                "stands")
 
 
 # --- closed loop -----------------------------------------------------------------------------------

@@ -18,7 +18,7 @@ import numpy as np
 
 from florence_common import angles
 from move_base.people_layer import approach_exemption
-from move_base.trajectory_planner import TrajectoryPlanner, poses_are_free, wrap_nb
+from move_base.trajectory_planner import TrajectoryPlanner, failure_text, poses_are_free, wrap_nb
 
 log = logging.getLogger(__name__)
 
@@ -379,7 +379,9 @@ class LocalPlanner:
             log.debug("no legal trajectory (cost %.1f)", cost)
             if self.planner.refused_for_people:
                 return False, _ZERO, NO_VALID_TRAJECTORY_PEOPLE
-            return False, _ZERO, NO_VALID_TRAJECTORY
+            # why each sample failed: the reason goes into the log, the WAITING text and the abort text
+            detail = f": {failure_text(self.planner.failures)}" if self.planner.failures else ""
+            return False, _ZERO, NO_VALID_TRAJECTORY + detail
         self.local_plan = points
         return True, cmd, ""
 

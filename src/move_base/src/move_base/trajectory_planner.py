@@ -555,6 +555,26 @@ def footprint_cost(costmap, x, y, yaw, footprint):
                                     float(x), float(y), float(yaw), np.asarray(footprint, dtype=float).reshape(-1, 2)))
 
 
+def failure_counts(costs, padded_here, body_here):
+    """Why every sample of a cycle failed, for the reason text: how many costs are -1 (an obstacle,
+    an unknown cell or the grid's edge on the way), -2 (a cell the plan's distance fields do not
+    reach) and PEOPLE_COST (too near a person), and the costs of the padded footprint and of the
+    body where the robot stands (< 0: it touches one already)."""
+    costs = np.asarray(costs, dtype=float)
+    return {"samples": int(costs.size), "collide": int(np.sum(costs == -1.0)),
+            "unreachable": int(np.sum(costs == -2.0)), "people": int(np.sum(costs == PEOPLE_COST)),
+            "padded_here": float(padded_here), "body_here": float(body_here)}
+
+
+def failure_text(counts):
+    """The detail :func:`failure_counts` gives, in words."""
+    here = ("the body touches an obstacle or unknown cell where it stands" if counts["body_here"] < 0 else
+            "the padded footprint touches an obstacle or unknown cell where it stands" if counts["padded_here"] < 0
+            else "the footprint is clear where it stands")
+    return (f"{counts['collide']} of {counts['samples']} samples hit an obstacle or unknown cell, "
+            f"{counts['unreachable']} leave the plan's reach, {counts['people']} come too near a person; {here}")
+
+
 def adjust_plan_resolution(plan_xy, resolution):
     """MapGrid::adjustPlanResolution: insert points so consecutive plan points [m] are at most
     ``resolution`` [m] apart (``ceil(d / resolution)`` equal steps on a longer segment)."""
@@ -629,6 +649,7 @@ class TrajectoryPlanner:
         self.params = params
         self.footprint = np.asarray(footprint, dtype=float).reshape(-1, 2)
         self.body = self.footprint if body is None else np.asarray(body, dtype=float).reshape(-1, 2)
+        self.failures = None  # failure_counts of the last cycle in which every sample failed, else None
         self.in_padding = False  # the robot stood within its padding, its body clear, this cycle
         self.inscribed_radius = float(inscribed_radius)
         self.circumscribed_radius = float(circumscribed_radius)
@@ -906,7 +927,10 @@ class TrajectoryPlanner:
             traj.cost = self._escape_bookkeeping(traj.cost, x, y, yaw, ends_free)
         self.last_trajectory = traj
         if traj.cost < 0:
+            self.failures = failure_counts(costs, footprint_cost(costmap, x, y, yaw, self.footprint),
+                                           footprint_cost(costmap, x, y, yaw, self.body))
             return (0.0, 0.0, 0.0), traj.cost, traj.points
+        self.failures = None
         return (traj.vx, traj.vy, traj.vth), traj.cost, traj.points
 
     def _select(self, costmap, samples, kinds, raw_vth, dvth, costs, pts, n_valid, x, y, yaw):
