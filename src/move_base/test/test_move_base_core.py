@@ -109,6 +109,14 @@ def test_planner_patience_then_recoveries_then_abort_with_reason():
     assert t_end >= 2.0
     # the rotation's commands went out while it ran
     assert any(r.cmd == (0.0, 0.0, 0.5) for r in results)
+    # a recovery that says how it ended has that in the text the node logs; one that does not, just "done"
+    assert "recovery conservative_reset done" in [r.text for r in results]
+    told = FakeRecovery("rotate_recovery")
+    told.outcome = "rotation in collision 0.02 rad ahead after 0.00 rad, stopping"
+    core = MoveBaseCore(core_params(planner_patience=1.0), planner, FakeController(), [told])
+    core.set_goal((5.0, 0.0, 0.0), 0.0, POSE)
+    _, _, _, results = run(core)
+    assert f"recovery rotate_recovery done: {told.outcome}" in [r.text for r in results]
 
 
 def test_max_planning_retries_counts_attempts():
@@ -262,6 +270,7 @@ def test_clear_costmap_recovery_clears_each_costmap_round_its_own_pose():
     rec.start(0.0, (0, 0, 0))
     assert rec.step(0.0, (0, 0, 0)) == (True, None)
     assert a.cleared == [(1.0, 2.0, 3.0)] and b.cleared == [(-3.0, 0.5, 3.0)]
+    assert rec.outcome == "cleared obstacles farther than 1.50 m"
 
 
 def simulate_rotation(rec, collide_at=None, dt=0.05):
@@ -288,6 +297,7 @@ def test_rotate_recovery_turns_once_within_limits():
     speeds = [c[2] for c in cmds[:-1]]
     assert min(speeds) >= 1.0 and max(speeds) <= 1.5
     assert cmds[-1] == (0.0, 0.0, 0.0)
+    assert rec.outcome.startswith("turned 6.")
 
 
 def test_rotate_recovery_stops_before_a_collision():
@@ -295,6 +305,13 @@ def test_rotate_recovery_stops_before_a_collision():
     turned, cmds = simulate_rotation(rec, collide_at=1.0)
     assert turned < 1.0
     assert cmds[-1] == (0.0, 0.0, 0.0)
+    # how it ended, for the node's log: the collision ahead and the turn made
+    assert rec.outcome.startswith("rotation in collision ") and f"after {turned:.2f} rad" in rec.outcome
+    _, cmds = simulate_rotation(rec, collide_at=0.0)  # blocked at once
+    assert len(cmds) == 1 and rec.outcome == "rotation in collision 0.02 rad ahead after 0.00 rad, stopping"
+    rec.pose_in_local = lambda: None
+    rec.start(0.0, None)
+    assert rec.step(0.0, None) == (True, (0.0, 0.0, 0.0)) and rec.outcome.startswith("no robot pose")
 
 
 def test_max_recovery_restarts_ends_a_robot_shuffling_on_the_spot():

@@ -358,13 +358,15 @@ class MoveBaseCore:
         if not done:
             return CycleResult(cmd=tuple(cmd) if cmd is not None else ZERO, text=f"recovery {name}",
                                started_recovery=started)
+        outcome = getattr(g.recovery, "outcome", "")  # the node logs how it ended
         g.recovery = None
         g.recovery_index += 1
         g.last_oscillation_reset = now
         g.state = PLANNING
         g.planning_retries = 0
         g.last_valid_plan = now
-        return CycleResult(cmd=ZERO, text=f"recovery {name} done", started_recovery=started)
+        return CycleResult(cmd=ZERO, text=f"recovery {name} done" + (f": {outcome}" if outcome else ""),
+                           started_recovery=started)
 
     # --- waiting for people (Florence) -----------------------------------------------------
     def _maybe_wait(self, now, pose, reason, trigger):

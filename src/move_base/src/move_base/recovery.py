@@ -39,6 +39,7 @@ class ClearCostmapRecovery:
         self.name = name
         self.costmaps = list(costmaps)
         self.reset_distance = float(reset_distance)
+        self.outcome = ""  # how the last run ended, in words (the node logs it)
 
     def start(self, now, pose):
         pass
@@ -49,7 +50,8 @@ class ClearCostmapRecovery:
             here = costmap.get_robot_pose()
             if here is not None:
                 costmap.clear_outside(here[0], here[1], self.reset_distance)
-        log.info("%s: cleared obstacles farther than %.2f m", self.name, self.reset_distance / 2.0)
+        self.outcome = f"cleared obstacles farther than {self.reset_distance / 2.0:.2f} m"
+        log.info("%s: %s", self.name, self.outcome)
         return True, None
 
 
@@ -77,6 +79,7 @@ class RotateRecovery:
         self._turned = 0.0
         self._last_yaw = None
         self._started = 0.0
+        self.outcome = ""  # how the last run ended, in words (the node logs it)
 
     def start(self, now, pose):
         self._turned = 0.0
@@ -86,23 +89,28 @@ class RotateRecovery:
     def step(self, now, pose):
         local = self.pose_in_local()
         if local is None:
-            log.warning("%s: no robot pose in the local costmap, stopping", self.name)
-            return True, (0.0, 0.0, 0.0)
+            return self._end("no robot pose in the local costmap, stopping")
         x, y, yaw = local
         if self._last_yaw is not None:
             self._turned += abs(angles.diff(yaw, self._last_yaw))
         self._last_yaw = yaw
         remaining = 2.0 * math.pi - self._turned
-        if remaining <= self.tolerance or now - self._started > self.timeout:
-            return True, (0.0, 0.0, 0.0)
+        if remaining <= self.tolerance:
+            return self._end(f"turned {self._turned:.2f} rad", warn=False)
+        if now - self._started > self.timeout:
+            return self._end(f"timed out after {now - self._started:.1f} s, turned {self._turned:.2f} rad")
         # check the rest of the turn for collisions, in steps of sim_granularity [rad]
         steps = np.arange(self.sim_granularity, remaining + 1e-9, self.sim_granularity)
         for a in steps:
             if self.costmap_check(x, y, yaw + a) < 0.0:
-                log.warning("%s: rotation in collision %.2f rad ahead, stopping", self.name, a)
-                return True, (0.0, 0.0, 0.0)
+                return self._end(f"rotation in collision {a:.2f} rad ahead after {self._turned:.2f} rad, stopping")
         vel = min(self.max_vel, max(self.min_vel, math.sqrt(2.0 * self.acc_lim_th * remaining)))
         return False, (0.0, 0.0, vel)
+
+    def _end(self, outcome, warn=True):
+        self.outcome = outcome
+        (log.warning if warn else log.info)("%s: %s", self.name, outcome)
+        return True, (0.0, 0.0, 0.0)
 
 
 def default_recovery_specs(conservative_reset_dist, circumscribed_radius, clearing_rotation_allowed):
