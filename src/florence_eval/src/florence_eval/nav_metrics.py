@@ -88,6 +88,14 @@ def drive_time(length, max_vel=MAX_VEL_X, acc=ACC_X):
     return length / max_vel + max_vel / acc
 
 
+def floor_ratio(length, turns, max_vel_x=MAX_VEL_X):
+    """The least time ratio of a leg of plan ``length`` [m] and start and end ``turns`` [s]
+    (:func:`plan_length_and_turns`): turn, drive and turn at the base's limits, over length /
+    ``max_vel_x``; None for a leg of no length."""
+    ideal = length / max_vel_x
+    return (drive_time(length, max_vel_x) + turns) / ideal if ideal > 0 else None
+
+
 def plan_length_and_turns(xy, start, goal, end_m=0.3):
     """(length [m], turns [s]) of a plan (N, 2) [m] from ``start`` to ``goal`` (x, y, yaw): its
     length and the least time for the turn from the start's heading onto the plan's first
@@ -120,7 +128,7 @@ def floor_ratios(plan, goals, start, count, max_vel_x=MAX_VEL_X):
         length, turns = plan_length_and_turns(xy, start, goal)
         if length < 0.5:
             continue
-        out.append((drive_time(length, max_vel_x) + turns) / (length / max_vel_x))
+        out.append(floor_ratio(length, turns, max_vel_x))
         start = tuple(goal)
     return out
 
@@ -311,7 +319,7 @@ def leg_record(goal, state, text, took, driven, plan_m, turns_s, track, t0, coll
         "plan_length_m": plan_m, "driven_m": driven, "ratio": took / ideal,
         "turns_s": turns_s, "ratio_with_turns": took / (ideal + turns_s),
         # the least ratio within the base's limits: turn, drive, turn, one after the other
-        "ratio_floor": (drive_time(plan_m, max_vel_x) + turns_s) / ideal if ideal > 0 else None,
+        "ratio_floor": floor_ratio(plan_m, turns_s, max_vel_x),
         "rest_s": rest, "ratio_to_rest": rest / ideal,
         "end_error_m": end_error, "end_yaw_error_rad": end_yaw_error, "rest_error_m": rest_error,
         **time_breakdown(track), **leg_phases(track, goal), "spin_in_place_rad": spin_in_place(track),
