@@ -33,8 +33,10 @@ collisions 0, the centre never nearer than 0.5 m to a person's while driving, bo
 0.05 m, median time-to-goal <= 1.35 x (path length / max_vel_x) with people and <= 1.25 without;
 under --busy-cores 1: collisions 0 and success >= 95 %. move_base's CPU per simulated second from
 /proc. Writes bench/results/<name>.json and <name>.png (every trajectory over the map; red where
-the robot drove nearer than 0.5 m to a person; the legs in which the robot's own motion then took it
-toward the person are counted apart from those in which the person closed in). Each leg also gives
+the robot drove nearer than 0.5 m to a person; the legs in which the robot's own motion took off more
+of the distance on the way in, from 0.8 m, than the person's are counted apart:
+nav_metrics.approach_shares, printed per leg as [robot m, person m]; each leg keeps every person's
+position beside its kept track rows, ``people_at_track``). Each leg also gives
 the largest turn on the spot
 without moving 0.1 m (``spin_in_place_rad``; the run: the legs with more than a full turn).
 """
@@ -202,7 +204,7 @@ def main():
                     f"{name}: {result['succeeded']}/{len(legs)} goals, {result['collisions']} collisions, median "
                     f"time/ideal {result['time_ratio_median'] or float('nan'):.2f}, "
                     f"{result['legs_nearer_than_0_5_m_driving']} legs < 0.5 m from a person "
-                    f"({result['legs_nearer_than_0_5_m_robot_closing']} closing in)")
+                    f"({result['legs_nearer_than_0_5_m_robot_approached']} the robot's doing)")
             (RESULTS / f"{name}.json").write_text(json.dumps({**result, "legs": legs}, indent=1))
             return result
 
@@ -234,7 +236,7 @@ def main():
                   f"gap {1000 * (leg['body_clearance_m'] or 0):3.0f} mm "
                   f"spin {leg['spin_in_place_rad'] / math.tau:3.1f} turns person "
                   f"{'-' if near is None else f'{near:.2f}'} m "
-                  f"{'' if near is None or near >= 0.5 else leg['person_nearest_driving_closing_mps']} "
+                  f"{'' if near is None or near >= 0.5 else leg['person_nearest_driving_approach_m']} "
                   f"{text if state != 'SUCCEEDED' else ''}", flush=True)
             report(partial=True)  # what a long run has so far survives an interruption
         result = report(partial=False)

@@ -98,6 +98,35 @@ def test_people_near_says_who_closed_in():
     summary = nav_metrics.summarise(legs)
     assert summary["legs_nearer_than_0_5_m_driving"] == 2
     assert summary["legs_nearer_than_0_5_m_robot_closing"] == 1
+    assert summary["legs_nearer_than_0_5_m_robot_approached"] == 0  # no shares recorded (older runs)
+    for leg, shares in zip(legs, ([0.3, 0.1], [0.1, 0.3]), strict=True):
+        leg["person_nearest_driving_approach_m"] = shares
+    assert nav_metrics.summarise(legs)["legs_nearer_than_0_5_m_robot_approached"] == 1
+
+
+def test_approach_shares_split_the_distance_lost_between_robot_and_person():
+    # Bob walks west at 0.4 m/s from x 3; the robot drives east at 0.2 m/s for 2 s, then stands
+    t = np.arange(0.0, 6.0, 0.05)
+    robot = np.column_stack([np.minimum(0.2 * t, 0.4), np.zeros_like(t)])
+    bob = np.column_stack([np.maximum(3.0 - 0.4 * t, 0.9), np.zeros_like(t)])
+    end = len(t) - 1  # 0.5 m apart
+    robot_m, person_m = nav_metrics.approach_shares(robot, bob, end, start_distance=0.8)
+    # 0.8 m apart at 4.5 s, long after the robot stopped: over that stretch only he moved
+    assert robot_m == pytest.approx(0.0, abs=1e-9) and person_m == pytest.approx(0.3, abs=0.021)  # one step of his
+    # from the start (never 5 m apart): the robot took off 0.4 m, he 2.1 m, together 3.0 - 0.5
+    robot_m, person_m = nav_metrics.approach_shares(robot, bob, end, start_distance=5.0)
+    assert robot_m == pytest.approx(0.4, abs=1e-3) and person_m == pytest.approx(2.1, abs=1e-3)
+    # the robot sliding past a person who stands: all of it the robot's
+    past = np.column_stack([np.linspace(-1.0, 0.0, 21), np.full(21, -0.4)])
+    still = np.zeros((21, 2))
+    robot_m, person_m = nav_metrics.approach_shares(past, still, 20, start_distance=2.0)
+    assert person_m == pytest.approx(0.0, abs=1e-12)
+    assert robot_m == pytest.approx(math.hypot(-1.0, -0.4) - 0.4, abs=1e-3)  # rounded to the mm
+    # a person who walks up from the side to a robot driving on: hers
+    side = np.column_stack([np.zeros(21), np.linspace(-1.0, -0.4, 21)])
+    ahead = np.column_stack([np.linspace(0.0, 0.02, 21), np.zeros(21)])
+    robot_m, person_m = nav_metrics.approach_shares(ahead, side, 20)
+    assert person_m > 0.35 and abs(robot_m) < 0.01
 
 
 def test_leg_record_body_clearance_counts_people(world_and_body):
@@ -109,6 +138,9 @@ def test_leg_record_body_clearance_counts_people(world_and_body):
     assert leg["person_distance_driving_m"] == pytest.approx(0.5)
     assert leg["body_clearance_m"] == pytest.approx(0.5 - body[0] - 0.2)  # the person, nearer than any wall
     assert leg["world_clearance_m"] > leg["body_clearance_m"]
+    # where she was at every kept row of the track, for a look at the leg later
+    assert leg["people_at_track"] == {"alice": [[1.8, 3.0]]} and len(leg["track"]) == 1
+    assert leg["person_nearest_driving_approach_m"] == [0.1, 0.0]  # from 0.6 m: the robot's 0.1 m
     # 0.1 m at 0.5 m/s (0.2 s) takes 2 sqrt(0.1 / 1.0) s from rest to rest, no turn
     assert leg["ratio_floor"] == pytest.approx(2.0 * math.sqrt(0.1) / 0.2)
     summary = nav_metrics.summarise([leg])

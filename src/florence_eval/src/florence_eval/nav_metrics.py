@@ -34,6 +34,8 @@ XY_GOAL_TOLERANCE = 0.25  # [m] the seed's TrajectoryPlannerROS xy_goal_toleranc
 YAW_GOAL_TOLERANCE = 0.3  # [rad] the seed's yaw_goal_tolerance
 DRIVING_SPEED = 0.03  # [m/s] ground-truth speed from which the robot counts as driving (time_breakdown too)
 ROBOT_CLOSING = 0.05  # [m/s] the robot's own speed toward a person from which it counts as closing in
+TRACK_KEPT_EVERY = 5  # a leg keeps every fifth row of its ground-truth track (and the people's there)
+APPROACH_FROM = 0.8  # [m] centre distance from which the approach to the least distance is split (approach_shares)
 PERSON_RADIUS = 0.20  # [m] a person's footprint when the people file does not say (florence_sim's RADIUS)
 # issue 21: with the walking residents and without them (then the time ratio's target is 1.25)
 TARGETS = {"success_rate": 0.99, "collisions": 0, "person_distance_driving_m": 0.5, "body_clearance_m": 0.05,
@@ -238,6 +240,26 @@ def people_radii(people_file):
     return {p.id: p.radius for p in load_people(str(people_file), load_scene())}
 
 
+def approach_shares(robot_xy, person_xy, end, start_distance=APPROACH_FROM):
+    """Who closed in on the way to the distance at row ``end``: the metres of centre distance the
+    robot's own motion took off (person held where they were at each step) and those the person's
+    took off (robot held where it had got to), summed from the last row before ``end`` at which the
+    distance was ``start_distance`` [m] or more (the first row if never). The two add up to the
+    distance lost over that stretch; positive: closing in. ``robot_xy``/``person_xy`` (N, 2) at the
+    same stamps. Returns [robot m, person m]. At the least distance itself both speeds are about
+    zero (a minimum), so the speeds there cannot say who came nearer; the stretch before it can."""
+    robot_xy = np.asarray(robot_xy, dtype=float).reshape(-1, 2)
+    person_xy = np.asarray(person_xy, dtype=float).reshape(-1, 2)
+    d = np.hypot(*(robot_xy - person_xy).T)
+    far = np.nonzero(d[:end + 1] >= start_distance)[0]
+    first = int(far[-1]) if len(far) else 0
+    r0, r1 = robot_xy[first:end], robot_xy[first + 1:end + 1]
+    p0, p1 = person_xy[first:end], person_xy[first + 1:end + 1]
+    robot_part = np.hypot(*(r0 - p0).T) - np.hypot(*(r1 - p0).T)
+    person_part = np.hypot(*(r1 - p0).T) - np.hypot(*(r1 - p1).T)
+    return [round(float(robot_part.sum()), 3), round(float(person_part.sum()), 3)]
+
+
 def people_near(track, people, robot_radius, radii=None, driving_speed=DRIVING_SPEED):
     """How near the robot came to people along a track (ground truth).
 
@@ -247,14 +269,17 @@ def people_near(track, people, robot_radius, radii=None, driving_speed=DRIVING_S
     :data:`PERSON_RADIUS`). Returns a dict of the least centre distance [m] while the robot
     drives (ground-truth speed >= ``driving_speed`` [m/s]) with where it was ([robot x, y, person
     x, y, person id]) and who closed in then (``person_nearest_driving_closing_mps``: [the robot's
-    own speed toward the person, the person's toward the robot] [m/s]; negative: moving apart), the
-    least at any time, and the least gap between the robot's body (a disc of ``robot_radius``) and
-    a person's footprint; each None when no person was recorded over the track (or, for the first
-    three, the robot never drove)."""
+    own speed toward the person, the person's toward the robot] [m/s]; negative: moving apart) and
+    on the way there (``person_nearest_driving_approach_m``: :func:`approach_shares`), the least at
+    any time, the least gap between the robot's body (a disc of ``robot_radius``) and a person's
+    footprint, and every person's position at every fifth row of the track (``people_at_track``:
+    {id: [[x, y] or None, ...]}, the rows leg_record keeps); each None (or {}) when no person was
+    recorded over the track (or, for the first four, the robot never drove)."""
     track = np.asarray(track, dtype=float).reshape(-1, 6)
     radii = radii or {}
     out = {"person_distance_driving_m": None, "person_distance_m": None, "person_clearance_m": None,
-           "person_nearest_driving_at": None, "person_nearest_driving_closing_mps": None}
+           "person_nearest_driving_at": None, "person_nearest_driving_closing_mps": None,
+           "person_nearest_driving_approach_m": None, "people_at_track": {}}
     if len(track) == 0:
         return out
     t, driving = track[:, 0], np.abs(track[:, 4]) >= driving_speed
@@ -269,6 +294,10 @@ def people_near(track, people, robot_radius, radii=None, driving_speed=DRIVING_S
         px = np.interp(t[seen], rows[:, 0], rows[:, 1])
         py = np.interp(t[seen], rows[:, 0], rows[:, 2])
         robot = track[seen]
+        kept = np.full((len(t), 2), np.nan)
+        kept[seen] = np.column_stack([px, py])
+        out["people_at_track"][pid] = [None if np.isnan(row[0]) else [round(float(row[0]), 3), round(float(row[1]), 3)]
+                                       for row in kept[::TRACK_KEPT_EVERY]]
         d = np.hypot(robot[:, 1] - px, robot[:, 2] - py)
         near_all.append(d.min())
         gap.append(d.min() - robot_radius - radii.get(pid, PERSON_RADIUS))
@@ -283,13 +312,14 @@ def people_near(track, people, robot_radius, radii=None, driving_speed=DRIVING_S
             robot_in = robot[i, 4] * (math.cos(robot[i, 3]) * ux + math.sin(robot[i, 3]) * uy)
             near_driving.append((d[i], [round(float(robot[i, 1]), 3), round(float(robot[i, 2]), 3),
                                         round(float(px[i]), 3), round(float(py[i]), 3), pid],
-                                 [round(float(robot_in), 3), round(float(-(pvx * ux + pvy * uy)), 3)]))
+                                 [round(float(robot_in), 3), round(float(-(pvx * ux + pvy * uy)), 3)],
+                                 approach_shares(robot[:, 1:3], np.column_stack([px, py]), i)))
     if near_all:
         out["person_distance_m"], out["person_clearance_m"] = float(min(near_all)), float(min(gap))
     if near_driving:
-        d, where, closing = min(near_driving, key=lambda item: item[0])
+        d, where, closing, shares = min(near_driving, key=lambda item: item[0])
         out["person_distance_driving_m"], out["person_nearest_driving_at"] = float(d), where
-        out["person_nearest_driving_closing_mps"] = closing
+        out["person_nearest_driving_closing_mps"], out["person_nearest_driving_approach_m"] = closing, shares
     return out
 
 
@@ -312,6 +342,8 @@ def leg_record(goal, state, text, took, driven, plan_m, turns_s, track, t0, coll
     gaps = [g for g in (world, near["person_clearance_m"]) if g is not None]
     clearance = min(gaps) if gaps else None
     track = track[track[:, 0] <= t0 + took]
+    kept = len(track[::TRACK_KEPT_EVERY])  # the people's rows beside the kept track's
+    near["people_at_track"] = {pid: rows[:kept] for pid, rows in near["people_at_track"].items()}
     end_error, end_yaw_error = goal_error(track, goal)
     ideal = plan_m / max_vel_x
     return {
@@ -326,7 +358,7 @@ def leg_record(goal, state, text, took, driven, plan_m, turns_s, track, t0, coll
         "collisions": collisions,
         "collision_poses": [list(p) for p in collision_poses],
         "body_clearance_m": clearance, "world_clearance_m": world, **near,
-        "track": track[::5].round(3).tolist(),
+        "track": track[::TRACK_KEPT_EVERY].round(3).tolist(),
     }
 
 
@@ -378,6 +410,11 @@ def summarise(legs, targets=None):
         # turning, or driving along or away
         "legs_nearer_than_0_5_m_robot_closing": sum(
             1 for leg in close if (leg.get("person_nearest_driving_closing_mps") or [math.inf])[0] > ROBOT_CLOSING),
+        # of those, the legs in which the robot's own motion took off more of the distance on the way
+        # in (from APPROACH_FROM) than the person's did (approach_shares; runs before it: not counted)
+        "legs_nearer_than_0_5_m_robot_approached": sum(
+            1 for leg in close if (leg.get("person_nearest_driving_approach_m") or [0.0, 0.0])[0]
+            > (leg.get("person_nearest_driving_approach_m") or [0.0, 0.0])[1]),
         "time_ratio_median": float(np.median(ratios)) if len(ratios) else None,
         "time_ratio_p90": float(np.percentile(ratios, 90)) if len(ratios) else None,
         "time_ratio_max": float(ratios.max()) if len(ratios) else None,
