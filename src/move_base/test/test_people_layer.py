@@ -12,6 +12,7 @@ from move_base.layers import KeepoutLayer, LayeredCostmap, ObservationSource
 from move_base.navfn import compute_potential, translate_costs
 from move_base.people_layer import (
     GIVE_WAY_FAN,
+    HEADING_KEEP,
     SENT_TO_ID,
     Person,
     ProxemicLayer,
@@ -457,6 +458,47 @@ def test_give_way_from_a_waiting_person_keeps_off_the_way_they_go_on_beyond_the_
     assert x >= 2.0  # no room in the corridor: into the room
     assert abs(y) >= 0.75 + (along - 1.0) * GIVE_WAY_FAN - 1e-9
     assert abs(y) > 1.2  # not just beside her line at the room's edge (the old rule's (2.0, 0.75))
+
+def test_a_person_who_stopped_keeps_the_heading_they_walked_on():
+    layer = ProxemicLayer(keep_time=2.0, unseen_keep_time=30.0)
+    layer.set_people([Person(0.0, 0.0, -0.5, 0.0, seen=1.0, id=3), Person(2.0, 2.0, 0.0, 0.1, seen=1.0, id=4)],
+                     stamp=1.0)
+    layer.set_people([Person(-0.5, 0.0, 0.0, 0.0, seen=2.0, id=3), Person(2.0, 2.1, 0.0, 0.0, seen=2.0, id=4)],
+                     stamp=2.0)  # she stopped (for the robot); he never walked faster than 0.1 m/s
+    headings = layer.headings([3, 4, 99])
+    assert headings[0] == pytest.approx([-1.0, 0.0])
+    assert np.isnan(headings[1:]).all()
+    layer.set_people([Person(-0.5, 0.0, 0.0, 0.0, seen=1.0 + HEADING_KEEP + 0.5, id=3)], stamp=1.0 + HEADING_KEEP + 0.5)
+    assert np.isnan(layer.headings([3])).all()  # walked too long ago
+    layer.clear()
+    assert np.isnan(layer.headings([3])).all()
+
+
+def test_give_way_keeps_off_the_way_a_stopped_walker_was_going():
+    """Nav bench seed 2: Alice, walking west through the kitchen's opening, stopped 0.5 m from the
+    robot; the line from her to the robot ran south-west, and the robot gave way 1 m west of her,
+    on the line she had been walking, where she walked into it when she went on."""
+    c = Costmap2D(120, 120, 0.05, -3.0, -3.0)
+    c.costs[...] = LETHAL_OBSTACLE
+    c.costs[46:72, :] = FREE_SPACE  # a passage along x, y -0.7 .. 0.6
+    person = np.array([[0.0, 0.0, 0.0, 0.0]])  # standing
+    robot = (-0.25, -0.42)
+    cell = c.world_to_map(*robot)
+    potential = compute_potential(translate_costs(c.costs, True, cell), cell)
+    heading = np.array([[-1.0, 0.0]])  # she had been walking west
+    x, y = give_way_cells(potential, c, robot, person, keep_off=0.75, min_distance=1.0, headings=heading)
+    assert x > 1.0  # behind her: the passage has no room beside her way on
+    # and off the line toward the robot as before
+    ux, uy = np.array(robot) / math.hypot(*robot)
+    along, across = x * ux + y * uy, abs(-x * uy + y * ux)
+    assert across >= 0.75 + max(0.0, along - math.hypot(*robot)) * GIVE_WAY_FAN - 1e-9 or along < -1.0
+    # without her heading the nearest place is on her way on, west of her: what the robot did
+    x0, y0 = give_way_cells(potential, c, robot, person, keep_off=0.75, min_distance=1.0)
+    assert x0 < -0.5 and abs(y0) < 0.75
+    # an unknown heading (NaN) changes nothing
+    assert give_way_cells(potential, c, robot, person, keep_off=0.75, min_distance=1.0,
+                          headings=np.full((1, 2), np.nan)) == (x0, y0)
+
 
 # --- keep-out ------------------------------------------------------------------------------------
 def test_keepout_marks_lethal_before_inflation_and_changes_nothing_else():

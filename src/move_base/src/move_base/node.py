@@ -241,25 +241,32 @@ class PeopleAdapter:
         self.nearest = None  # (x, y) [m] of the last blocker named (_describe)
 
     def _people(self):
-        """(P, 4) x, y [m], vx, vy [m/s] of the tracked people in the global frame now."""
+        """(P, 4) x, y [m], vx, vy [m/s] of the tracked people in the global frame now, and (P, 2)
+        the heading each last walked on (NaN: none; ProxemicLayer.headings)."""
         layer = self.node.planner_costmap.layered.people
         if layer is None:
-            return np.zeros((0, 4))
+            return np.zeros((0, 4)), np.zeros((0, 2))
         with self.node.planner_costmap.lock:
-            return layer.current(rospy.get_time())[0]
+            people, ids = layer.current(rospy.get_time())
+            return people, layer.headings(ids)
 
-    def _blockers(self, pose, radius):
-        """(B, 4) the tracked people and the unmapped leg-height returns (still) within ``radius`` [m]."""
-        people = self._people()
+    def _blockers(self, pose, radius, with_headings=False):
+        """(B, 4) the tracked people and the unmapped leg-height returns (still) within ``radius``
+        [m], and how many of them are tracked people (the first ones); ``with_headings``: also (B, 2)
+        the heading each last walked on (NaN: none, and for every unmapped return)."""
+        people, headings = self._people()
         still = self.node.unmapped_near(pose, radius)
         target = self.node.approach_target(self.node.planner_costmap.global_frame)
         if target is not None:  # the person the robot is sent to is nobody to wait for or give way to
             _, still, her = approach_exemption(people, still, target, 0.0, 0.0)
             if her >= 0:
-                people = np.delete(people, her, axis=0)
-        rows = [people[np.hypot(people[:, 0] - pose[0], people[:, 1] - pose[1]) <= radius],
-                np.column_stack([still, np.zeros((len(still), 2))])]
-        return np.concatenate(rows).reshape(-1, 4), len(rows[0])
+                people, headings = np.delete(people, her, axis=0), np.delete(headings, her, axis=0)
+        near = np.hypot(people[:, 0] - pose[0], people[:, 1] - pose[1]) <= radius
+        rows = [people[near], np.column_stack([still, np.zeros((len(still), 2))])]
+        blockers = np.concatenate(rows).reshape(-1, 4)
+        if not with_headings:
+            return blockers, len(rows[0])
+        return blockers, len(rows[0]), np.concatenate([headings[near], np.full((len(still), 2), np.nan)])
 
     def _describe(self, pose, blockers, tracked):
         """Who the nearest of ``blockers`` is and where, in words ('' for nobody); kept as
@@ -316,12 +323,13 @@ class PeopleAdapter:
         (people_layer.give_way_cells on a navfn potential from the robot over the global costmap),
         or None."""
         costmap = self.node.planner_costmap
-        blockers, tracked = self._blockers(pose, 2.0)
+        blockers, tracked, headings = self._blockers(pose, 2.0, with_headings=True)
         layer = costmap.layered.people
         if tracked and layer is not None and layer.follow_speed > 0.0:
             # nobody needs the robot out of the way of a person walking away from it (it follows them)
             away = walking_away(blockers[:tracked], pose[0], pose[1], layer.follow_speed)
-            blockers = np.concatenate([blockers[:tracked][~away], blockers[tracked:]])
+            keep = np.concatenate([~away, np.ones(len(blockers) - tracked, dtype=bool)])
+            blockers, headings = blockers[keep], headings[keep]
             tracked -= int(away.sum())
         if not len(blockers):
             return None
@@ -333,7 +341,8 @@ class PeopleAdapter:
         trav = translate_costs(grid.costs, self.node.global_planner.allow_unknown, cell)
         potential = compute_potential(trav, cell)
         potential = np.where(grid.costs < GIVE_WAY_MAX_COST, potential, np.inf)
-        target = give_way_cells(potential, grid, pose[:2], blockers, GIVE_WAY_KEEP_OFF, GIVE_WAY_MIN_DISTANCE)
+        target = give_way_cells(potential, grid, pose[:2], blockers, GIVE_WAY_KEEP_OFF, GIVE_WAY_MIN_DISTANCE,
+                                headings)
         if target is None:
             rospy.loginfo(LOG + "no place to give way to the people from (%.2f, %.2f)", pose[0], pose[1])
             return None

@@ -35,6 +35,11 @@ from florence_common.params import Param, ParamTable
 from move_base.costmap_2d import LETHAL_OBSTACLE, NO_INFORMATION
 
 CARRY_LIMIT = 0.5  # [s] how far along their velocity a person's position is carried
+# A person's heading is remembered from their last message at HEADING_SPEED [m/s] or faster for
+# HEADING_KEEP [s] (headings): one who stopped for the robot goes on that way when it leaves (the
+# simulated residents turn back after waiting 10 s; people wait longer)
+HEADING_SPEED = 0.2
+HEADING_KEEP = 15.0
 SENT_TO_ID = -2  # the id current() gives the person the robot is sent to when no track holds her (sent_to)
 
 PROXEMIC_PARAMS = ParamTable(
@@ -103,6 +108,7 @@ class ProxemicLayer:
         self._stamp = None  # [s] the newest message's time
         self._trail = []  # (t [s], x [m], y [m]) of every tracked person of the last trail_time
         self._sent_to = None  # (x [m], y [m], until [s]): the person the robot is sent to (sent_to)
+        self._headings = {}  # id -> (t [s], ux, uy): the way a person last walked (headings)
 
     def sent_to(self, x, y, until):
         """The person the robot is sent to (move_base's ~approach_target) stands at (x, y) [m] until
@@ -125,12 +131,25 @@ class ProxemicLayer:
             if all(math.isfinite(v) for v in values):
                 self._people[p.id] = (p, stamp)
                 self._trail.append((p.seen, p.x, p.y))
+                speed = math.hypot(p.vx, p.vy)
+                if speed >= HEADING_SPEED:
+                    self._headings[p.id] = (p.seen, p.vx / speed, p.vy / speed)
             else:
                 dropped += 1
         self._stamp = stamp
         self._people = {k: v for k, v in self._people.items() if self._kept(v[0], stamp)}
         self._unseen &= self._people.keys()  # held ones past unseen_keep_time are gone
+        self._headings = {k: v for k, v in self._headings.items() if k in self._people and stamp - v[0] <= HEADING_KEEP}
         return dropped
+
+    def headings(self, ids):
+        """(P, 2) the unit heading each of ``ids`` (:meth:`current`'s) last walked on at
+        HEADING_SPEED or faster within HEADING_KEEP of the newest message; NaN where none."""
+        out = np.full((len(ids), 2), np.nan)
+        for i, pid in enumerate(ids):
+            if pid in self._headings:
+                out[i] = self._headings[pid][1:]
+        return out
 
     def _kept(self, person, now):
         """Whether ``person`` still counts at ``now`` [s]: seen within keep_time, or within
@@ -183,6 +202,7 @@ class ProxemicLayer:
         self._stamp = None
         self._trail = []
         self._sent_to = None
+        self._headings = {}
 
     def trail(self, now=None):
         """(N, 3) x, y [m], trail_radius: where tracked people were within trail_time before
@@ -508,7 +528,7 @@ def blocked_plan_reason(near, map_has_way, waiting=False):
     return ""
 
 
-def give_way_cells(potential, costmap, robot_xy, people, keep_off, min_distance):
+def give_way_cells(potential, costmap, robot_xy, people, keep_off, min_distance, headings=None):
     """Where the robot could stand to let people by: the reachable cell (finite ``potential``, a
     navfn potential from the robot over ``costmap``) of least potential at least
     ``min_distance`` [m] from every person and at least ``keep_off`` [m] from every person's way,
@@ -518,8 +538,14 @@ def give_way_cells(potential, costmap, robot_xy, people, keep_off, min_distance)
 
     ``people`` (P, 4) (x, y, vx, vy); a walking person's way is their heading instead. A still
     person's way widens beyond the robot by GIVE_WAY_FAN across per metre along: where they go after
-    the place the robot leaves is not known."""
+    the place the robot leaves is not known. ``headings`` (P, 2): the unit heading a still person
+    last walked on (NaN: unknown; :meth:`ProxemicLayer.headings`); the way on along it is theirs
+    too, ahead of them (nav bench seed 2: a resident who stopped for the robot in the kitchen's
+    opening was taken for someone who only wanted the robot's place, and the robot gave way 1 m
+    on along the line she had been walking, where she walked into it twice)."""
     people = np.asarray(people, dtype=float).reshape(-1, 4)
+    headings = (np.full((len(people), 2), np.nan) if headings is None
+                else np.asarray(headings, dtype=float).reshape(len(people), 2))
     ok = np.isfinite(potential)
     if not ok.any():
         return None
@@ -527,7 +553,7 @@ def give_way_cells(potential, costmap, robot_xy, people, keep_off, min_distance)
     wx, wy = costmap.map_to_world(cols, rows)
     wx, wy = np.atleast_1d(wx), np.atleast_1d(wy)
     good = np.ones(len(wx), dtype=bool)
-    for px, py, vx, vy in people:
+    for (px, py, vx, vy), (hx, hy) in zip(people, headings, strict=True):
         speed = math.hypot(vx, vy)
         dx, dy = robot_xy[0] - px, robot_xy[1] - py
         norm = math.hypot(dx, dy)
@@ -545,6 +571,8 @@ def give_way_cells(potential, costmap, robot_xy, people, keep_off, min_distance)
         good &= np.hypot(rx, ry) >= min_distance
         # off the person's way: beside it, or behind the person (not reachable past them anyway)
         good &= (across >= need) | (along < -min_distance)
+        if not walking and math.isfinite(hx) and math.isfinite(hy):  # and off the way they were walking
+            good &= (np.abs(-rx * hy + ry * hx) >= keep_off) | (rx * hx + ry * hy < -min_distance)
     if not good.any():
         return None
     best = int(np.argmin(np.where(good, potential[rows, cols], np.inf)))
