@@ -477,7 +477,7 @@ def test_a_person_who_stopped_keeps_the_heading_they_walked_on():
 def test_give_way_keeps_off_the_way_a_stopped_walker_was_going():
     """Nav bench seed 2: Alice, walking west through the kitchen's opening, stopped 0.5 m from the
     robot; the line from her to the robot ran south-west, and the robot gave way 1 m west of her,
-    on the line she had been walking, where she walked into it when she went on."""
+    on the line she had been walking, where 8 s later the two were 17 mm apart between bodies."""
     c = Costmap2D(120, 120, 0.05, -3.0, -3.0)
     c.costs[...] = LETHAL_OBSTACLE
     c.costs[46:72, :] = FREE_SPACE  # a passage along x, y -0.7 .. 0.6

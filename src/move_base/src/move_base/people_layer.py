@@ -542,7 +542,8 @@ def give_way_cells(potential, costmap, robot_xy, people, keep_off, min_distance,
     last walked on (NaN: unknown; :meth:`ProxemicLayer.headings`); the way on along it is theirs
     too, ahead of them (nav bench seed 2: a resident who stopped for the robot in the kitchen's
     opening was taken for someone who only wanted the robot's place, and the robot gave way 1 m
-    on along the line she had been walking, where she walked into it twice)."""
+    on along the line she had been walking; 8 s later, there, the two were 0.39 m apart, 17 mm
+    between bodies)."""
     people = np.asarray(people, dtype=float).reshape(-1, 4)
     headings = (np.full((len(people), 2), np.nan) if headings is None
                 else np.asarray(headings, dtype=float).reshape(len(people), 2))
