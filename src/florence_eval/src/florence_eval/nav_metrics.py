@@ -18,6 +18,7 @@ once (``bench/nav.py --floor``).
 
 import json
 import math
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -503,7 +504,7 @@ def plot_legs(path, grid, legs, title):
             ax.plot(where[2], where[3], "o", color="magenta", ms=4)
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
-    ax.set_title(title, fontsize=9)
+    ax.set_title(textwrap.fill(title, 90), fontsize=9)  # a long title in lines, not cut off at the edges
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
