@@ -593,6 +593,52 @@ def test_while_waiting_a_turn_toward_the_people_is_not_going_on():
     assert _goes_on((0.0, 0.0, 0.8), (0.0, 0.0, 0.0), plan_ahead[:1])  # at the goal: its yaw
 
 
+class TurningController(FakeController):
+    """Only a turn on the spot while the people block (the local planner refuses every way forward
+    toward them but never a turn on the spot), then forward."""
+
+    def __init__(self, people, **kw):
+        super().__init__(**kw)
+        self.people = people
+
+    def compute_velocity(self, pose):
+        self.calls += 1
+        if self.people.blocked(self.people.now):
+            return True, (0.0, 0.0, 0.8), ""
+        return True, (0.3, 0.0, 0.0), ""
+
+
+def test_a_turn_on_the_spot_before_a_person_close_in_front_is_waiting():
+    """Nav bench seed 1 (1 Dec): Alice waited 0.52 m in front of the robot, the plan ran on past her,
+    and the robot turned a full turn on the spot in 8 s (the controller's turns on the spot, the
+    only commands it did not refuse, scored alike) before move_base waited."""
+    ahead = Plan(True, np.array([[0.0, 0.0, 0.0], [0.5, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]]))
+    people = FakePeople(lambda now: 1.0 <= now < 9.0)
+    core = MoveBaseCore(core_params(person_wait_timeout=60.0), FakePlanner([ahead]), TurningController(people), [],
+                        people=people)
+    core.set_goal((2.0, 0.0, 0.0), 0.0, POSE)
+    results = run_people(core, people, n=60)[3]
+    waiting = [now for now, state, _ in results if state == "WAITING"]
+    assert waiting and min(waiting) < 1.5 and 8.5 <= max(waiting) < 9.5
+    assert all(r.cmd == (0.0, 0.0, 0.0) for now, state, r in results if 1.0 <= now < 9.0)  # no turning
+    assert results[-1][1] == CONTROLLING and results[-1][2].cmd[0] > 0.0
+    # a plan that starts behind the robot: turning toward it is going on, not waiting
+    behind = Plan(True, np.array([[0.0, 0.0, math.pi], [-0.5, 0.0, math.pi], [-1.0, 0.0, math.pi]]))
+    people = FakePeople(lambda now: 1.0 <= now < 9.0)
+    core = MoveBaseCore(core_params(person_wait_timeout=60.0), FakePlanner([behind]), TurningController(people), [],
+                        people=people)
+    core.set_goal((-1.0, 0.0, math.pi), 0.0, POSE)
+    results = run_people(core, people, n=60)[3]
+    assert not [now for now, state, _ in results if state == "WAITING"]
+    assert any(r.cmd == (0.0, 0.0, 0.8) for _, _, r in results)
+    # and without person_wait_timeout ROS's behaviour: the turn
+    people = FakePeople(lambda now: 1.0 <= now < 9.0)
+    core = MoveBaseCore(core_params(person_wait_timeout=0.0), FakePlanner([ahead]), TurningController(people), [],
+                        people=people)
+    core.set_goal((2.0, 0.0, 0.0), 0.0, POSE)
+    assert any(r.cmd == (0.0, 0.0, 0.8) for _, _, r in run_people(core, people, n=60)[3])
+
+
 def test_flipping_between_blocked_and_free_without_progress_still_times_out():
     """A person just at min_person_distance: the way looks free for a moment, then blocked again, and the
     robot does not get on. The waits add up (ROS-style patience would restart every flip): after

@@ -60,6 +60,7 @@ CONTROLLING_R = "CONTROLLING_R"
 OSCILLATION_R = "OSCILLATION_R"
 
 ZERO = (0.0, 0.0, 0.0)
+TURN_BEFORE_PEOPLE = "only a turn on the spot, the plan ahead, with a person close in front"
 
 
 PARAMS = ParamTable(
@@ -142,6 +143,7 @@ class _GoalState:
     recovery_pose: tuple = (math.nan, math.nan)  # where the last recovery began
     last_plan_time: float = -math.inf
     have_plan: bool = False
+    plan_poses: object = None  # the plan to the goal the controller follows
     reasons: dict = field(default_factory=dict)
     wait_since: float | None = None  # [s] when this wait began, less the time waited before it (None: not waiting)
     waited: float = 0.0  # [s] waited for people since the last progress, before this wait
@@ -278,7 +280,7 @@ class MoveBaseCore:
             g.last_valid_plan = now
             g.planning_retries = 0
             self.controller.set_plan(plan.poses)
-            g.have_plan = True
+            g.have_plan, g.plan_poses = True, plan.poses
             if g.state == PLANNING:
                 g.state = CONTROLLING
                 if g.trigger == PLANNING_R:
@@ -317,6 +319,14 @@ class MoveBaseCore:
                                         f"({p.oscillation_timeout:.1f} s)")
             return CycleResult(cmd=ZERO, text=g.reasons[OSCILLATION_R])
         ok, cmd, reason = self.controller.compute_velocity(tuple(pose))
+        if ok and self._turning_before_people(pose, cmd):
+            # the controller's only way is a turn on the spot with the plan ahead and a person
+            # close in front: stand and wait for them as when it has no way at all (nav bench seed
+            # 1, 1 Dec: with Alice waiting 0.52 m in front the robot turned a full turn on the spot
+            # in 8 s, the turns on the spot scored alike, before it waited)
+            waiting = self._maybe_wait(now, pose, TURN_BEFORE_PEOPLE, CONTROLLING_R)
+            if waiting is not None:
+                return waiting
         if ok:
             g.last_valid_control = now
             self._leave_wait(now)
@@ -369,6 +379,15 @@ class MoveBaseCore:
                            started_recovery=started)
 
     # --- waiting for people (Florence) -----------------------------------------------------
+    def _turning_before_people(self, pose, cmd):
+        """Whether ``cmd`` only turns on the spot (:func:`_goes_on`: not toward a plan that starts
+        more than 1 rad off the heading) while a person stands close in front along the plan (the
+        people's ``clear``): what WAITING does not go on with either."""
+        g, p = self.g, self.params
+        if self.people is None or p.person_wait_timeout <= 0.0 or g.waited_out or g.plan_poses is None:
+            return False
+        return not _goes_on(cmd, pose, g.plan_poses) and not self.people.clear(tuple(pose), g.plan_poses)
+
     def _maybe_wait(self, now, pose, reason, trigger):
         """WAITING when people stand in the way of this failed plan (``reason`` None) or control
         (the controller's ``reason``) and the goal has not been waited for since the last valid
@@ -428,7 +447,7 @@ class MoveBaseCore:
         g.last_plan_time = now
         reason = None
         if plan.ok:
-            g.have_plan = True
+            g.have_plan, g.plan_poses = True, plan.poses
             self.controller.set_plan(plan.poses)
             ok, cmd, reason = self.controller.compute_velocity(tuple(pose))
             if ok and not _goes_on(cmd, pose, plan.poses):
