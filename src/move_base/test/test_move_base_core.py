@@ -610,8 +610,8 @@ class TurningController(FakeController):
 
 def test_a_turn_on_the_spot_before_a_person_close_in_front_is_waiting():
     """Nav bench seed 1 (1 Dec): Alice waited 0.52 m in front of the robot, the plan ran on past her,
-    and the robot turned a full turn on the spot in 8 s (the controller's turns on the spot, the
-    only commands it did not refuse, scored alike) before move_base waited."""
+    and the robot turned a full turn on the spot in 8 s (the local planner's only commands) before
+    move_base waited."""
     ahead = Plan(True, np.array([[0.0, 0.0, 0.0], [0.5, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]]))
     people = FakePeople(lambda now: 1.0 <= now < 9.0)
     core = MoveBaseCore(core_params(person_wait_timeout=60.0), FakePlanner([ahead]), TurningController(people), [],

@@ -323,7 +323,7 @@ class MoveBaseCore:
             # the controller's only way is a turn on the spot with the plan ahead and a person
             # close in front: stand and wait for them as when it has no way at all (nav bench seed
             # 1, 1 Dec: with Alice waiting 0.52 m in front the robot turned a full turn on the spot
-            # in 8 s, the turns on the spot scored alike, before it waited)
+            # in 8 s before it waited; why the local planner chose those turns was not looked into)
             waiting = self._maybe_wait(now, pose, TURN_BEFORE_PEOPLE, CONTROLLING_R)
             if waiting is not None:
                 return waiting
