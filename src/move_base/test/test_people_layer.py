@@ -495,6 +495,9 @@ def test_give_way_keeps_off_the_way_a_stopped_walker_was_going():
     # without her heading the nearest place is on her way on, west of her: what the robot did
     x0, y0 = give_way_cells(potential, c, robot, person, keep_off=0.75, min_distance=1.0)
     assert x0 < -0.5 and abs(y0) < 0.75
+    # giving way is a step aside: the place behind her is out of a 0.9 m reach, so none
+    assert give_way_cells(potential, c, robot, person, keep_off=0.75, min_distance=1.0, headings=heading,
+                          reach=0.9) is None
     # an unknown heading (NaN) changes nothing
     assert give_way_cells(potential, c, robot, person, keep_off=0.75, min_distance=1.0,
                           headings=np.full((1, 2), np.nan)) == (x0, y0)

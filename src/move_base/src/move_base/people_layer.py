@@ -315,6 +315,11 @@ GIVE_WAY_MAX_COST = 200
 # bench's robot gave way from a kitchen door 0.96 m to the side but 1.5 m on into the kitchen, where
 # the resident who had waited at the door then walked (nav100 seed 1, leg 35: 0.38 m between centres).
 GIVE_WAY_FAN = math.tan(math.radians(30.0))
+# A place to give way is within this distance [m] of the robot: giving way is a step aside, not a
+# journey (nav bench seed 2, 1 Dec, leg 54: with 146 unmapped returns near it in the corridor the
+# nearest place off every one's line was 4.05 m away, through the living room; the robot went there
+# and back, 117 s for the leg). Beyond it the robot waits where it stands.
+GIVE_WAY_REACH = 2.0
 STILL_MARGIN = 0.1  # [m] a leg's distance from a person's centre
 
 
@@ -528,10 +533,11 @@ def blocked_plan_reason(near, map_has_way, waiting=False):
     return ""
 
 
-def give_way_cells(potential, costmap, robot_xy, people, keep_off, min_distance, headings=None):
+def give_way_cells(potential, costmap, robot_xy, people, keep_off, min_distance, headings=None,
+                   reach=GIVE_WAY_REACH):
     """Where the robot could stand to let people by: the reachable cell (finite ``potential``, a
-    navfn potential from the robot over ``costmap``) of least potential at least
-    ``min_distance`` [m] from every person and at least ``keep_off`` [m] from every person's way,
+    navfn potential from the robot over ``costmap``) within ``reach`` [m] of the robot, of least
+    potential, at least ``min_distance`` [m] from every person and at least ``keep_off`` [m] from every person's way,
     the line through the person toward the robot (a person who stands in the robot's way waits
     for it to leave the line they walk along), on the robot's side of each person. Returns the
     cell's centre (x, y) [m] or None.
@@ -553,7 +559,7 @@ def give_way_cells(potential, costmap, robot_xy, people, keep_off, min_distance,
     rows, cols = np.nonzero(ok)
     wx, wy = costmap.map_to_world(cols, rows)
     wx, wy = np.atleast_1d(wx), np.atleast_1d(wy)
-    good = np.ones(len(wx), dtype=bool)
+    good = np.hypot(wx - robot_xy[0], wy - robot_xy[1]) <= reach
     for (px, py, vx, vy), (hx, hy) in zip(people, headings, strict=True):
         speed = math.hypot(vx, vy)
         dx, dy = robot_xy[0] - px, robot_xy[1] - py
